@@ -1,0 +1,139 @@
+// Rigid-body dynamics of a Model, templated on the scalar S (double, or ceres::Jet for
+// automatic differentiation). Pinocchio-style: a read-only Model, a scratch DataTpl<S> made once
+// per thread, and free functions that write their results into output arguments. After the
+// first call with a given output vector no function allocates.
+//
+//   M(q) ddq + C(q,dq) dq + g(q) = tau,   M = M_links + diag(rotor_inertia),
+//   p = M dq,   beta = g - C^T dq,   dM/dt = C + C^T   (Christoffel-consistent C).
+//
+// Implementation: recursive algorithms in world (= root frame) coordinates. Forward pass: body
+// poses, world joint axes z_i, angular velocities w_i and velocities v_i of the body origins
+// (which sit on the joint axes). Backward pass: composite quantities of the subtree of each
+// joint (mass, first moment, momentum h^c about the world origin) projected on the joint's
+// motion subspace S_i; e.g. p_i = S_i^T h^c_i and (C^T dq)_i = dT/dq_i = (h^c_i)^T (v_i x S_i).
+// No finite differences anywhere.
+//
+// Units: q rad (revolute) or m (prismatic), dq per s, ddq per s^2; torques Nm (N), momenta
+// Nms (Ns), energies J. Size mismatches (q.size() != model.nq, ...) throw std::invalid_argument.
+#pragma once
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "momentum/model/model.hpp"
+
+namespace momentum::model {
+
+template <class S>
+using VectorX = Eigen::Matrix<S, Eigen::Dynamic, 1>;
+template <class S>
+using MatrixX = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
+template <class S>
+using Matrix3X = Eigen::Matrix<S, 3, Eigen::Dynamic>;
+
+// Scratch space for the dynamics of one Model. Holds the model's constants cast to S (so a Jet
+// computation casts nothing per call) and the per-body results of the last forward pass, which
+// callers may read after forward_kinematics (or any other function, which runs it first):
+// rotation[i], position[i] = pose of body i in the world frame, axis[i] = world joint axis.
+// Not thread-safe: one Data per thread. Must only be used with the Model it was made from.
+template <class S>
+struct DataTpl {
+  using Vector3 = Eigen::Matrix<S, 3, 1>;
+  using Matrix3 = Eigen::Matrix<S, 3, 3>;
+
+  explicit DataTpl(const Model& model);
+
+  // Constants per joint/body, from the Model.
+  std::vector<Matrix3> joint_rotation;       // R0: joint frame in parent frame at q = 0
+  std::vector<Matrix3> joint_rotation_k;     // R0 [a]x
+  std::vector<Matrix3> joint_rotation_k2;    // R0 [a]x^2
+  std::vector<Vector3> joint_translation;    // t0
+  std::vector<Vector3> joint_axis_parent;    // R0 a
+  std::vector<bool> revolute;
+  std::vector<S> mass;
+  std::vector<Vector3> com;                  // in body frame
+  std::vector<Matrix3> inertia;              // about com, body frame
+  VectorX<S> rotor_inertia;
+  Vector3 gravity;
+  Matrix3 tip_rotation;
+  Vector3 tip_translation;
+
+  // Results of the last forward pass, world frame.
+  std::vector<Matrix3> rotation;   // body i orientation
+  std::vector<Vector3> position;   // body i origin (a point on joint i's axis)
+  std::vector<Vector3> axis;       // joint i axis
+  std::vector<Vector3> com_offset; // rotation[i] * com[i]: body origin to com
+  std::vector<Vector3> omega;      // angular velocity of body i
+  std::vector<Vector3> velocity;   // linear velocity of body i's origin
+  std::vector<Vector3> domega;     // angular acceleration (inverse dynamics)
+  std::vector<Vector3> accel;      // linear acceleration of the origin (inverse dynamics)
+  std::vector<Vector3> linear;     // per-body linear momentum or force
+  std::vector<Vector3> angular;    // per-body angular momentum or moment about world origin
+  Matrix3 tip_rotation_world;
+  Vector3 tip_position_world;
+};
+using Data = DataTpl<double>;
+
+// Body poses in the world frame into data.rotation/position/axis/com_offset, and the tip frame
+// into data.tip_rotation_world/tip_position_world.
+template <class S>
+void forward_kinematics(const Model& model, DataTpl<S>& data, const VectorX<S>& q);
+
+// Joint-space mass matrix M(q) (nq x nq, symmetric), rotor inertia on the diagonal. CRBA.
+template <class S>
+void mass_matrix(const Model& model, DataTpl<S>& data, const VectorX<S>& q, MatrixX<S>& M);
+
+// Gravity torque g(q) = dV/dq (nq).
+template <class S>
+void gravity_torque(const Model& model, DataTpl<S>& data, const VectorX<S>& q, VectorX<S>& g);
+
+// C(q,dq) dq (nq): the velocity-product torques (RNEA with ddq = 0 and no gravity).
+template <class S>
+void coriolis_times_velocity(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
+                             const VectorX<S>& dq, VectorX<S>& c);
+
+// C(q,dq)^T dq (nq) for the Christoffel-consistent C, i.e. dT/dq with T = dq^T M dq / 2.
+template <class S>
+void coriolis_transpose_times_velocity(const Model& model, DataTpl<S>& data,
+                                       const VectorX<S>& q, const VectorX<S>& dq,
+                                       VectorX<S>& ct);
+
+// Generalized momentum p = M(q) dq and beta = g(q) - C(q,dq)^T dq, both nq, in one O(n)
+// forward + backward pass (the momentum observer's hot path).
+template <class S>
+void momentum_and_beta(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
+                       const VectorX<S>& dq, VectorX<S>& p, VectorX<S>& beta);
+
+// tau = M(q) ddq + C(q,dq) dq + g(q) (nq), rotor inertia included. Recursive Newton-Euler.
+template <class S>
+void inverse_dynamics(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
+                      const VectorX<S>& dq, const VectorX<S>& ddq, VectorX<S>& tau);
+
+// T = dq^T M(q) dq / 2, J (rotor inertia included).
+template <class S>
+S kinetic_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q, const VectorX<S>& dq);
+
+// V = -sum_k m_k gravity . c_k, J (zero with every com at the root origin).
+template <class S>
+S potential_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q);
+
+// World-frame position of a point fixed in body `body` (0..nq-1), m. Runs forward_kinematics.
+template <class S>
+Eigen::Matrix<S, 3, 1> point_position(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
+                                      int body, const Eigen::Matrix<S, 3, 1>& point_in_body);
+
+// Jacobian (3 x nq) of the world linear velocity of a point fixed in body `body` (0..nq-1):
+// v = J dq; columns of joints after `body` are zero. Maps a contact force f on that point to
+// joint torques J^T f. Throws std::invalid_argument when body is out of range.
+template <class S>
+void point_jacobian(const Model& model, DataTpl<S>& data, const VectorX<S>& q, int body,
+                    const Eigen::Matrix<S, 3, 1>& point_in_body, Matrix3X<S>& J);
+
+}  // namespace momentum::model
+
+#include "momentum/model/dynamics_impl.hpp"

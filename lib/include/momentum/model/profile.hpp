@@ -1,0 +1,67 @@
+// The robot profile: one JSON file per robot (comments allowed) that every tool reads with -p.
+// This layer only knows the keys the model needs (urdf, root, tip, gravity, joints); the other
+// stages read and write their own sections ("observer", "friction", "thresholds", "payloads",
+// "provenance") in Profile::document, and save the whole document back atomically.
+// Schema: man 5 momentum-profile.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+namespace momentum::model {
+
+// Drive parameters of one chain joint, in chain order (joint 1 nearest the root).
+struct JointDrive {
+  // Torque constant at the joint, gear ratio included: tau_m = k_i * i. Nm/A (N/A for a
+  // prismatic joint). Any finite value; 1 means "the current column already holds torque".
+  double k_i = 1.0;
+  // Reflected rotor inertia, added to the mass matrix diagonal. kg m^2 (kg for prismatic), >= 0.
+  double rotor_inertia = 0.0;
+};
+
+// A parsed profile. `document` is the whole JSON as read (comments dropped); the typed fields
+// below are the model's view of it and are not written back by save_profile_atomically.
+struct Profile {
+  std::filesystem::path path;  // the file it was read from (empty when built in memory)
+  nlohmann::json document;     // whole document; other stages own their sections
+  std::filesystem::path urdf;  // URDF file, resolved against the profile's folder
+  std::string root;            // chain root link (fixed to the world)
+  std::string tip;             // chain tip link
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};  // in the root link's frame, m/s^2
+  // One entry per moving joint of the chain, or empty when the profile has no "joints" key
+  // (then every joint gets the JointDrive defaults). The count is checked by build_model, which
+  // is the first place the chain is known.
+  std::vector<JointDrive> joints;
+};
+
+// Top-level keys this layer knows; anything else is reported through momentum::warn.
+const std::vector<std::string>& known_profile_keys();
+
+// Reads and parses a profile file. JSON with // and /* */ comments. Throws momentum::Error
+// naming the file (and the line for syntax errors) when the file cannot be read, is not JSON,
+// lacks urdf/root/tip, or a known key has the wrong type or value (gravity not 3 finite numbers,
+// joints not an array of objects, k_i not finite, rotor_inertia negative). Unknown top-level
+// keys are not errors: each is reported once through momentum::warn.
+Profile load_profile(const std::filesystem::path& path);
+
+// Same as load_profile for a document already in memory; `path` is used to resolve the URDF
+// and in error messages (it need not exist).
+Profile profile_from_document(nlohmann::json document, const std::filesystem::path& path);
+
+// Writes `document` (pretty-printed, 2-space indent, trailing newline) to a temporary file in
+// the destination's folder, fsyncs it, and renames it over `path`, so readers see either the
+// old or the new profile, never a torn one. Throws momentum::Error naming the file on any I/O
+// failure (the temporary file is removed).
+void save_profile_atomically(const nlohmann::json& document, const std::filesystem::path& path);
+
+// Appends {"tool", "version" (momentum version), "time" (UTC, ISO-8601, seconds, 'Z'),
+// "details"} to document["provenance"], creating the list when absent. Throws momentum::Error
+// when "provenance" exists and is not an array.
+void append_provenance(nlohmann::json& document, const std::string& tool,
+                       const nlohmann::json& details);
+
+}  // namespace momentum::model
