@@ -1,0 +1,35 @@
+#pragma once
+// The two encodings of a sample stream (see mo-log(5)): CSV text and the binary format.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace momentum::stream {
+
+enum class Encoding { csv, binary };
+
+// "csv" or "bin"; throws momentum::Error for anything else.
+Encoding parse_encoding(std::string_view name);
+std::string_view encoding_name(Encoding encoding);
+
+// Binary format constants (mo-log(5)). The magic starts with a non-ASCII byte so that no CSV
+// file can be mistaken for binary, and holds CR LF so that a text-mode copy is detected.
+inline constexpr char kBinaryMagic[8] = {'\x89', 'M', 'O', 'L', 'O', 'G', '\r', '\n'};
+inline constexpr std::uint32_t kBinaryVersion = 1;
+// The first value of a row record with these bits marks a comment record instead of a row:
+// a NaN with a payload that no arithmetic produces (text formatting and parsing give the
+// canonical NaN), so data rows never collide with it.
+inline constexpr std::uint64_t kCommentRecordBits = 0x7ff84d4f434d4e54ULL;  // "MOCMNT"
+
+// Writes the shortest text that parses back to exactly `value` (std::to_chars), into `out`
+// (at least 32 bytes); returns the number of characters. NaN is "nan" or "-nan", infinities
+// "inf" and "-inf".
+std::size_t format_double(double value, char* out);
+
+// Parses a whole field as a double (std::from_chars, plus "inf", "-inf", "nan", "-nan" and a
+// leading '+'); nullopt if the field is empty or not entirely a number.
+std::optional<double> parse_double(std::string_view field);
+
+}  // namespace momentum::stream

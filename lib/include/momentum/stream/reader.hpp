@@ -1,0 +1,90 @@
+#pragma once
+// Reads a sample stream (CSV or binary, detected from the first bytes) row by row in constant
+// memory, from a file or from stdin ("-"). Reading uses read(2) on the descriptor, so a row that
+// arrives on a pipe is returned as soon as its line is complete.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "momentum/stream/format.hpp"
+
+namespace momentum::stream {
+
+struct ReaderOptions {
+  // Stop with momentum::Error at the first bad row instead of reporting, counting and skipping.
+  bool strict = false;
+  // For header-less CSV (vendor exports): the column names to use; the first line is then data.
+  // A name "_" drops that column. Empty: the first non-comment line is the header.
+  std::vector<std::string> names;
+  // Display name of the input in messages; defaults to the path, or "<stdin>" for "-".
+  std::string display_name;
+};
+
+class Reader {
+ public:
+  // Opens `path` ("-" or "" for stdin) and reads up to the end of the header. Throws
+  // momentum::Error (`file: message`) when the file cannot be opened, is empty, or its header is
+  // unusable (no header, duplicate or empty column name, wrong binary magic or version).
+  static std::unique_ptr<Reader> open(const std::string& path, ReaderOptions options = {});
+  virtual ~Reader() = default;
+
+  // Column names, in order. Stable for the life of the reader.
+  const std::vector<std::string>& columns() const { return columns_; }
+  // Comment lines before the header, without the leading '#'.
+  const std::vector<std::string>& leading_comments() const { return leading_comments_; }
+  Encoding encoding() const { return encoding_; }
+  const std::string& name() const { return name_; }
+  // True when the input is a pipe, socket or terminal (rows may arrive live).
+  bool live() const { return live_; }
+
+  // Index of a column, or nullopt.
+  std::optional<std::size_t> find(std::string_view column) const;
+  // Index of a column; throws momentum::Error `file: missing column 'x'`.
+  std::size_t require(std::string_view column) const;
+
+  // The next good row (columns().size() values, valid until the next call), or nullptr at end
+  // of input. Bad rows (ragged, non-numeric, truncated binary record) are reported through
+  // momentum::warn with their location, counted and skipped; in strict mode they throw.
+  // Comment lines after the header are handed to the comment handler in stream order.
+  virtual const double* next() = 0;
+
+  // Location of the row last returned: `file:line` for CSV, `file: byte N` for binary.
+  virtual std::string where() const = 0;
+  // Line number (CSV) or byte offset (binary) of the row last returned.
+  std::uint64_t position() const { return position_; }
+
+  std::uint64_t rows_read() const { return rows_read_; }
+  std::uint64_t rows_skipped() const { return rows_skipped_; }
+
+  // Called with each comment line after the header (text without '#').
+  void on_comment(std::function<void(std::string_view)> handler) { comment_handler_ = std::move(handler); }
+  // Called before every read(2) that may block; tools flush their output here so that a live
+  // consumer sees every row already produced while batch input stays fully buffered.
+  void before_read(std::function<void()> hook) { before_read_ = std::move(hook); }
+
+  // Reports and counts a row the caller rejects for its own reasons (e.g. time going
+  // backwards); throws in strict mode. `message` has no location; the reader adds it.
+  void reject_row(std::string_view message);
+
+ protected:
+  Reader() = default;
+  std::vector<std::string> columns_;
+  std::vector<std::string> leading_comments_;
+  Encoding encoding_ = Encoding::csv;
+  std::string name_;
+  bool live_ = false;
+  bool strict_ = false;
+  std::uint64_t position_ = 0;
+  std::uint64_t rows_read_ = 0;
+  std::uint64_t rows_skipped_ = 0;
+  std::function<void(std::string_view)> comment_handler_;
+  std::function<void()> before_read_;
+  void skip_bad(std::string_view message);
+};
+
+}  // namespace momentum::stream

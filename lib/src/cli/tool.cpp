@@ -1,0 +1,160 @@
+#include "momentum/cli/tool.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/version.hpp"
+
+namespace momentum::cli {
+
+Tool::Tool(std::string name, std::string summary) : name_(std::move(name)), app_(std::move(summary), name_) {
+  app_.set_version_flag("--version", name_ + " (momentum) " + kVersion);
+  app_.add_flag("-q,--quiet", quiet_, "no warnings or progress on stderr");
+  app_.get_formatter()->column_width(32);
+}
+
+void Tool::add_inputs(const std::string& description) {
+  app_.add_option("inputs", inputs_, description)->type_name("FILE");
+}
+
+void Tool::add_stream_output() {
+  app_.add_option("-o,--output", output_, "output file (default: stdout)")->type_name("FILE");
+  app_.add_option("--output-format", output_format_, "csv or bin (default: the input's encoding)")
+      ->check(CLI::IsMember({"csv", "bin"}));
+  app_.add_flag("--line-buffered", line_buffered_, "flush every row (for live pipelines)");
+  app_.add_flag("--strict", strict_, "stop at the first bad row instead of skipping it");
+}
+
+void Tool::add_profile(bool required) {
+  auto* option = app_.add_option("-p,--profile", profile_, "robot profile (JSON)")->type_name("FILE");
+  if (required) option->required();
+}
+
+void Tool::add_seed() {
+  app_.add_option("--seed", seed_, "seed of every random process (default 1)")->type_name("N");
+}
+
+std::string Tool::provenance() const {
+  std::string line = " " + name_ + " " + kVersion;
+  for (const auto& arg : args_) {
+    line += ' ';
+    bool plain = !arg.empty() && arg.find_first_of(" \t'\"\\$*?#") == std::string::npos;
+    line += plain ? arg : "'" + arg + "'";
+  }
+  return line;
+}
+
+std::unique_ptr<stream::Reader> Tool::open_input(const std::string& path, stream::ReaderOptions options) const {
+  options.strict = options.strict || strict_;
+  return stream::Reader::open(path, std::move(options));
+}
+
+std::unique_ptr<stream::Writer> Tool::open_output(stream::Reader& like) const {
+  stream::WriterOptions options;
+  options.encoding = output_format_.empty() ? like.encoding() : stream::parse_encoding(output_format_);
+  options.line_buffered = line_buffered_;
+  auto writer = stream::Writer::open(output_, options);
+  for (const auto& c : like.leading_comments()) writer->comment(c);
+  writer->comment(provenance());
+  stream::Writer* raw = writer.get();
+  if (raw->interactive() || line_buffered_) like.before_read([raw] { raw->flush(); });
+  return writer;
+}
+
+bool Tool::show_progress() const { return !quiet_ && ::isatty(STDERR_FILENO); }
+
+int Tool::run(int argc, char** argv, const std::function<int()>& body) {
+  // A closed pipe shows as EPIPE from write(2), turned into a quiet exit by the Writer.
+  std::signal(SIGPIPE, SIG_IGN);
+  for (int i = 1; i < argc; ++i) args_.emplace_back(argv[i]);
+  try {
+    app_.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    std::cout << app_.help();
+    return kSuccess;
+  } catch (const CLI::CallForAllHelp& e) {
+    std::cout << app_.help("", CLI::AppFormatMode::All);
+    return kSuccess;
+  } catch (const CLI::CallForVersion& e) {
+    std::cout << e.what() << "\n";
+    return kSuccess;
+  } catch (const CLI::ParseError& e) {
+    std::string what = e.what();
+    if (!what.empty()) what[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(what[0])));
+    std::cerr << name_ << ": error: " << what << " (see " << name_ << " --help)\n";
+    return kUsage;
+  }
+  std::string prefix = name_ + ": warning: ";
+  set_warning_sink([this, prefix](std::string_view message) {
+    if (!quiet_) {
+      std::string line = prefix + std::string(message) + "\n";
+      std::fwrite(line.data(), 1, line.size(), stderr);
+    }
+  });
+  try {
+    int status = body();
+    std::cout.flush();
+    return status;
+  } catch (const stream::BrokenPipe&) {
+    return kSuccess;
+  } catch (const UsageError& e) {
+    std::cerr << name_ << ": error: " << e.what() << " (see " << name_ << " --help)\n";
+    return kUsage;
+  } catch (const Error& e) {
+    std::cerr << name_ << ": error: " << e.what() << "\n";
+    return kFailure;
+  } catch (const std::exception& e) {
+    std::cerr << name_ << ": error: " << e.what() << "\n";
+    return kFailure;
+  }
+}
+
+void Progress::update(const std::string& line) {
+  if (!enabled_) return;
+  using clock = std::chrono::steady_clock;
+  double now = std::chrono::duration<double>(clock::now().time_since_epoch()).count();
+  if (drawn_ && now - last_ < 0.1) return;
+  last_ = now;
+  drawn_ = true;
+  std::string text = "\r" + line + "\x1b[K";
+  std::fwrite(text.data(), 1, text.size(), stderr);
+  std::fflush(stderr);
+}
+
+void Progress::finish() {
+  if (enabled_ && drawn_) {
+    std::fwrite("\r\x1b[K", 1, 4, stderr);
+    std::fflush(stderr);
+    drawn_ = false;
+  }
+}
+
+std::vector<std::string> split_list(const std::string& text, char separator) {
+  std::vector<std::string> parts;
+  if (text.empty()) return parts;
+  std::size_t start = 0;
+  for (;;) {
+    std::size_t end = text.find(separator, start);
+    parts.push_back(text.substr(start, end - start));
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return parts;
+}
+
+std::vector<double> parse_number_list(const std::string& text, const std::string& option) {
+  std::vector<double> values;
+  for (const auto& part : split_list(text)) {
+    auto value = stream::parse_double(part);
+    if (!value) throw UsageError(option + ": '" + part + "' is not a number");
+    values.push_back(*value);
+  }
+  return values;
+}
+
+}  // namespace momentum::cli

@@ -1,0 +1,68 @@
+#include "momentum/stream/columns.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+
+#include "momentum/stream/error.hpp"
+
+namespace momentum::stream {
+
+std::vector<std::string> expand_column_list(std::string_view list) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  for (;;) {
+    std::size_t comma = list.find(',', start);
+    std::string_view item = list.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start);
+    if (item.empty()) throw Error("empty item in column list '" + std::string(list) + "'");
+    // "name<a>-<b>": both ends numbers, the name before <a> not ending in a digit.
+    std::size_t dash = item.rfind('-');
+    bool ranged = false;
+    if (dash != std::string_view::npos && dash + 1 < item.size()) {
+      std::string_view last = item.substr(dash + 1);
+      std::size_t digits = dash;
+      while (digits > 0 && std::isdigit(static_cast<unsigned char>(item[digits - 1]))) --digits;
+      std::string_view first = item.substr(digits, dash - digits);
+      int a = 0, b = 0;
+      bool ok_a = !first.empty() && std::from_chars(first.data(), first.data() + first.size(), a).ptr == first.data() + first.size();
+      bool ok_b = std::all_of(last.begin(), last.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }) &&
+                  std::from_chars(last.data(), last.data() + last.size(), b).ptr == last.data() + last.size();
+      if (ok_a && ok_b && digits > 0) {
+        if (b < a) throw Error("backwards range '" + std::string(item) + "' in column list");
+        std::string name(item.substr(0, digits));
+        for (int j = a; j <= b; ++j) out.push_back(name + std::to_string(j));
+        ranged = true;
+      }
+    }
+    if (!ranged) out.emplace_back(item);
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+std::vector<std::size_t> column_indices(const std::vector<std::string>& columns,
+                                        const std::vector<std::string>& wanted, const std::string& where) {
+  std::vector<std::size_t> out;
+  out.reserve(wanted.size());
+  for (const auto& name : wanted) {
+    auto it = std::find(columns.begin(), columns.end(), name);
+    if (it == columns.end()) throw Error(where + ": missing column '" + name + "'");
+    out.push_back(static_cast<std::size_t>(it - columns.begin()));
+  }
+  return out;
+}
+
+std::size_t count_joint_columns(const std::vector<std::string>& columns, std::string_view prefix) {
+  std::size_t n = 0;
+  while (std::find(columns.begin(), columns.end(), std::string(prefix) + std::to_string(n + 1)) != columns.end()) ++n;
+  return n;
+}
+
+std::vector<std::string> joint_columns(std::string_view prefix, std::size_t n) {
+  std::vector<std::string> out;
+  for (std::size_t j = 1; j <= n; ++j) out.push_back(std::string(prefix) + std::to_string(j));
+  return out;
+}
+
+}  // namespace momentum::stream

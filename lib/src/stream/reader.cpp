@@ -1,0 +1,412 @@
+#include "momentum/stream/reader.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <unordered_set>
+
+#include "momentum/stream/error.hpp"
+
+static_assert(std::endian::native == std::endian::little,
+              "the binary stream format is little-endian; add byte swapping for this host");
+
+namespace momentum::stream {
+
+void Reader::skip_bad(std::string_view message) {
+  std::string text = where() + ": " + std::string(message);
+  if (strict_) throw Error(text);
+  ++rows_skipped_;
+  warn(text);
+}
+
+void Reader::reject_row(std::string_view message) { skip_bad(message); }
+
+std::optional<std::size_t> Reader::find(std::string_view column) const {
+  for (std::size_t i = 0; i < columns_.size(); ++i)
+    if (columns_[i] == column) return i;
+  return std::nullopt;
+}
+
+std::size_t Reader::require(std::string_view column) const {
+  if (auto index = find(column)) return *index;
+  throw Error(name_ + ": missing column '" + std::string(column) + "'");
+}
+
+namespace {
+
+// Owns the descriptor and a growable window over the input. Memory is bounded by the longest
+// line (CSV) or record (binary), never by the length of the stream.
+class Input {
+ public:
+  Input(int fd, bool owns, std::string name) : fd_(fd), owns_(owns), name_(std::move(name)) {
+    buffer_.resize(1 << 20);
+  }
+  ~Input() {
+    if (owns_ && fd_ >= 0) ::close(fd_);
+  }
+  Input(const Input&) = delete;
+  Input& operator=(const Input&) = delete;
+
+  std::function<void()>* before_read = nullptr;
+
+  const char* data() const { return buffer_.data() + begin_; }
+  std::size_t available() const { return end_ - begin_; }
+  void consume(std::size_t n) {
+    begin_ += n;
+    offset_ += n;
+  }
+  std::uint64_t offset() const { return offset_; }
+  bool eof() const { return eof_; }
+
+  // Reads more bytes after the available ones; false at end of input.
+  bool fill() {
+    if (eof_) return false;
+    if (begin_ > 0 && begin_ == end_) {
+      begin_ = end_ = 0;
+    } else if (begin_ > buffer_.size() / 2 || end_ == buffer_.size()) {
+      std::memmove(buffer_.data(), buffer_.data() + begin_, end_ - begin_);
+      end_ -= begin_;
+      begin_ = 0;
+    }
+    if (end_ == buffer_.size()) buffer_.resize(buffer_.size() * 2);
+    if (before_read && *before_read) (*before_read)();
+    for (;;) {
+      ssize_t got = ::read(fd_, buffer_.data() + end_, buffer_.size() - end_);
+      if (got > 0) {
+        end_ += static_cast<std::size_t>(got);
+        return true;
+      }
+      if (got == 0) {
+        eof_ = true;
+        return false;
+      }
+      if (errno == EINTR) continue;
+      throw Error(name_ + ": read error: " + std::strerror(errno));
+    }
+  }
+
+  // Ensures at least n bytes are available; false if the input ends first.
+  bool want(std::size_t n) {
+    while (available() < n)
+      if (!fill()) return false;
+    return true;
+  }
+
+ private:
+  int fd_;
+  bool owns_;
+  std::string name_;
+  std::vector<char> buffer_;
+  std::size_t begin_ = 0, end_ = 0;
+  std::uint64_t offset_ = 0;
+  bool eof_ = false;
+};
+
+std::string printable(std::string_view text) {
+  constexpr std::size_t kMax = 40;
+  std::string out(text.substr(0, kMax));
+  if (text.size() > kMax) out += "...";
+  return out;
+}
+
+void check_columns(const std::vector<std::string>& columns, const std::string& where) {
+  std::unordered_set<std::string_view> seen;
+  for (std::size_t i = 0; i < columns.size(); ++i) {
+    if (columns[i].empty())
+      throw Error(where + ": empty column name (column " + std::to_string(i + 1) + ")");
+    if (!seen.insert(columns[i]).second)
+      throw Error(where + ": duplicate column name '" + columns[i] + "'");
+  }
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+class CsvReader final : public Reader {
+ public:
+  CsvReader(std::unique_ptr<Input> input, std::string display, const ReaderOptions& options)
+      : in_(std::move(input)) {
+    name_ = std::move(display);
+    strict_ = options.strict;
+    encoding_ = Encoding::csv;
+    in_->before_read = &before_read_;
+    std::string_view line;
+    bool have_line = false;
+    while (next_line(line)) {
+      if (!line.empty() && line.front() == '#') {
+        leading_comments_.emplace_back(line.substr(1));
+        continue;
+      }
+      if (trim(line).empty()) continue;
+      have_line = true;
+      break;
+    }
+    if (options.names.empty()) {
+      if (!have_line) {
+        if (line_number_ == 0) throw Error(name() + ": empty input");
+        throw Error(name() + ": no header line (only comments)");
+      }
+      std::size_t start = 0;
+      for (;;) {
+        std::size_t comma = line.find(',', start);
+        columns_.emplace_back(trim(line.substr(start, comma - start)));
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+      }
+      check_columns(columns_, located(name(), line_number_, "header"));
+      for (std::size_t i = 0; i < columns_.size(); ++i) keep_.push_back(i);
+      fields_ = columns_.size();
+    } else {
+      if (!have_line && line_number_ == 0) throw Error(name() + ": empty input");
+      fields_ = options.names.size();
+      for (std::size_t i = 0; i < options.names.size(); ++i) {
+        if (options.names[i] == "_") continue;
+        columns_.push_back(options.names[i]);
+        keep_.push_back(i);
+      }
+      check_columns(columns_, name() + ": --names");
+      if (have_line) pending_ = std::string(line), has_pending_ = true, pending_line_ = line_number_;
+    }
+    values_.resize(fields_);
+    row_.resize(columns_.size());
+  }
+
+  const double* next() override {
+    std::string_view line;
+    for (;;) {
+      if (has_pending_) {
+        has_pending_ = false;
+        line = pending_;
+        position_ = pending_line_;
+      } else {
+        if (!next_line(line)) return nullptr;
+        position_ = line_number_;
+      }
+      if (line.empty()) continue;
+      if (line.front() == '#') {
+        if (comment_handler_) comment_handler_(line.substr(1));
+        continue;
+      }
+      if (parse_row(line)) {
+        ++rows_read_;
+        return row_.data();
+      }
+    }
+  }
+
+  std::string where() const override { return name() + ":" + std::to_string(position_); }
+
+ private:
+  bool next_line(std::string_view& line) {
+    for (;;) {
+      const char* begin = in_->data() + scanned_;
+      std::size_t rest = in_->available() - scanned_;
+      const char* newline = static_cast<const char*>(std::memchr(begin, '\n', rest));
+      if (newline) {
+        std::size_t length = static_cast<std::size_t>(newline - in_->data());
+        finish_line(length, length + 1, line);
+        return true;
+      }
+      scanned_ = in_->available();
+      if (!in_->fill()) {
+        if (in_->available() == 0) return false;
+        finish_line(in_->available(), in_->available(), line);  // last line, no newline
+        return true;
+      }
+    }
+  }
+  void finish_line(std::size_t length, std::size_t consumed, std::string_view& line) {
+    // The view stays valid until the next fill(): consume now, and the buffer is only moved
+    // by the next call to fill().
+    const char* start = in_->data();
+    if (length > 0 && start[length - 1] == '\r') --length;
+    line = std::string_view(start, length);
+    in_->consume(consumed);
+    scanned_ = 0;
+    ++line_number_;
+  }
+
+  bool parse_row(std::string_view line) {
+    const char* p = line.data();
+    const char* end = p + line.size();
+    std::size_t field = 0;
+    for (;;) {
+      if (field == fields_) {
+        skip_bad("expected " + std::to_string(fields_) + " fields, got more");
+        return false;
+      }
+      const char* comma = static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
+      const char* field_end = comma ? comma : end;
+      double value;
+      auto result = std::from_chars(p, field_end, value);
+      if (result.ec != std::errc() || result.ptr != field_end) {
+        auto slow = parse_double(std::string_view(p, static_cast<std::size_t>(field_end - p)));
+        if (!slow) {
+          skip_bad("bad number '" + printable(std::string_view(p, static_cast<std::size_t>(field_end - p))) +
+                   "' in column '" + column_name(field) + "'");
+          return false;
+        }
+        value = *slow;
+      }
+      values_[field++] = value;
+      if (!comma) break;
+      p = comma + 1;
+    }
+    if (field != fields_) {
+      skip_bad("expected " + std::to_string(fields_) + " fields, got " + std::to_string(field));
+      return false;
+    }
+    for (std::size_t i = 0; i < keep_.size(); ++i) row_[i] = values_[keep_[i]];
+    return true;
+  }
+  std::string column_name(std::size_t field) const {
+    for (std::size_t i = 0; i < keep_.size(); ++i)
+      if (keep_[i] == field) return columns_[i];
+    return "_";
+  }
+
+  std::unique_ptr<Input> in_;
+  std::size_t scanned_ = 0;
+  std::uint64_t line_number_ = 0;
+  std::size_t fields_ = 0;
+  std::vector<std::size_t> keep_;
+  std::vector<double> values_;
+  std::vector<double> row_;
+  std::string pending_;
+  bool has_pending_ = false;
+  std::uint64_t pending_line_ = 0;
+};
+
+class BinaryReader final : public Reader {
+ public:
+  BinaryReader(std::unique_ptr<Input> input, std::string display, const ReaderOptions& options)
+      : in_(std::move(input)) {
+    name_ = std::move(display);
+    strict_ = options.strict;
+    encoding_ = Encoding::binary;
+    in_->before_read = &before_read_;
+    if (!in_->want(sizeof kBinaryMagic) || std::memcmp(in_->data(), kBinaryMagic, sizeof kBinaryMagic) != 0)
+      throw Error(name() + ": byte 0: wrong magic (not a momentum binary stream)");
+    in_->consume(sizeof kBinaryMagic);
+    std::uint32_t version = read_u32("version");
+    if (version != kBinaryVersion)
+      throw Error(name() + ": byte 8: unsupported binary version " + std::to_string(version) +
+                  " (this build reads version " + std::to_string(kBinaryVersion) + ")");
+    std::uint32_t ncolumns = read_u32("column count");
+    std::uint32_t ncomments = read_u32("comment count");
+    for (std::uint32_t i = 0; i < ncomments; ++i) leading_comments_.push_back(read_string("comment"));
+    for (std::uint32_t i = 0; i < ncolumns; ++i) columns_.push_back(read_string("column name"));
+    if (columns_.empty()) throw Error(name() + ": no columns in header");
+    check_columns(columns_, name() + ": header");
+    row_.resize(columns_.size());
+    record_ = columns_.size() * sizeof(double);
+  }
+
+  const double* next() override {
+    for (;;) {
+      position_ = in_->offset();
+      if (!in_->want(record_)) {
+        if (in_->available() == 0) return nullptr;
+        std::size_t partial = in_->available();
+        in_->consume(partial);
+        skip_bad("truncated record (" + std::to_string(partial) + " of " + std::to_string(record_) + " bytes)");
+        return nullptr;
+      }
+      std::uint64_t first;
+      std::memcpy(&first, in_->data(), sizeof first);
+      if (first == kCommentRecordBits) {
+        if (!read_comment_record()) return nullptr;
+        continue;
+      }
+      std::memcpy(row_.data(), in_->data(), record_);
+      in_->consume(record_);
+      ++rows_read_;
+      return row_.data();
+    }
+  }
+
+  std::string where() const override { return name() + ": byte " + std::to_string(position_); }
+
+ private:
+  bool read_comment_record() {
+    if (!in_->want(16)) {
+      in_->consume(in_->available());
+      skip_bad("truncated comment record");
+      return false;
+    }
+    std::uint64_t length;
+    std::memcpy(&length, in_->data() + 8, sizeof length);
+    std::size_t padded = static_cast<std::size_t>((length + 7) / 8 * 8);
+    if (length > (1u << 24) || !in_->want(16 + padded)) {
+      in_->consume(in_->available());
+      skip_bad("truncated or corrupt comment record");
+      return false;
+    }
+    if (comment_handler_) comment_handler_(std::string_view(in_->data() + 16, static_cast<std::size_t>(length)));
+    in_->consume(16 + padded);
+    return true;
+  }
+  std::uint32_t read_u32(const char* what) {
+    if (!in_->want(4))
+      throw Error(name() + ": byte " + std::to_string(in_->offset()) + ": truncated header (" + what + ")");
+    std::uint32_t v;
+    std::memcpy(&v, in_->data(), 4);
+    in_->consume(4);
+    return v;
+  }
+  std::string read_string(const char* what) {
+    std::uint32_t length = read_u32(what);
+    if (length > (1u << 20) || !in_->want(length))
+      throw Error(name() + ": byte " + std::to_string(in_->offset()) + ": truncated header (" + what + ")");
+    std::string s(in_->data(), length);
+    in_->consume(length);
+    return s;
+  }
+
+  std::unique_ptr<Input> in_;
+  std::vector<double> row_;
+  std::size_t record_ = 0;
+};
+
+bool is_live(int fd) {
+  struct stat st;
+  if (::fstat(fd, &st) != 0) return false;
+  return S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode) || S_ISCHR(st.st_mode);
+}
+
+}  // namespace
+
+std::unique_ptr<Reader> Reader::open(const std::string& path, ReaderOptions options) {
+  bool from_stdin = path.empty() || path == "-";
+  std::string name = !options.display_name.empty() ? options.display_name : from_stdin ? "<stdin>" : path;
+  int fd = from_stdin ? STDIN_FILENO : ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(name + ": cannot open: " + std::strerror(errno));
+  struct stat st;
+  if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
+    if (!from_stdin) ::close(fd);
+    throw Error(name + ": is a directory");
+  }
+  bool live = is_live(fd);
+  auto input = std::make_unique<Input>(fd, !from_stdin, name);
+  std::unique_ptr<Reader> reader;
+  if (!input->want(1)) throw Error(name + ": empty input");
+  if (static_cast<unsigned char>(input->data()[0]) == static_cast<unsigned char>(kBinaryMagic[0])) {
+    if (!options.names.empty()) throw Error(name + ": --names applies to CSV input, not binary");
+    reader = std::make_unique<BinaryReader>(std::move(input), name, options);
+  } else {
+    reader = std::make_unique<CsvReader>(std::move(input), name, options);
+  }
+  reader->live_ = live;
+  return reader;
+}
+
+}  // namespace momentum::stream

@@ -1,0 +1,192 @@
+#include "momentum/stream/writer.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <limits>
+
+#include "momentum/stream/error.hpp"
+
+namespace momentum::stream {
+
+namespace {
+constexpr std::size_t kBufferSize = 256 * 1024;
+// Room for the longest formatted double plus its separator.
+constexpr std::size_t kMaxNumber = 32;
+
+void put_u32(std::vector<char>& out, std::uint32_t v) {
+  char bytes[4];
+  std::memcpy(bytes, &v, 4);
+  out.insert(out.end(), bytes, bytes + 4);
+}
+void put_string(std::vector<char>& out, std::string_view s) {
+  put_u32(out, static_cast<std::uint32_t>(s.size()));
+  out.insert(out.end(), s.begin(), s.end());
+}
+}  // namespace
+
+std::unique_ptr<Writer> Writer::open(const std::string& path, WriterOptions options) {
+  std::unique_ptr<Writer> writer(new Writer());
+  bool to_stdout = path.empty() || path == "-";
+  writer->name_ = to_stdout ? "<stdout>" : path;
+  writer->fd_ = to_stdout ? STDOUT_FILENO
+                          : ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (writer->fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
+  writer->owns_fd_ = !to_stdout;
+  struct stat st;
+  writer->interactive_ = ::fstat(writer->fd_, &st) == 0 &&
+                         (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode) || S_ISCHR(st.st_mode));
+  writer->options_ = options;
+  writer->buffer_.resize(kBufferSize);
+  return writer;
+}
+
+Writer::~Writer() {
+  try {
+    close();
+  } catch (...) {
+  }
+}
+
+void Writer::comment(std::string_view text) {
+  if (!header_written_) {
+    pending_comments_.emplace_back(text);
+    return;
+  }
+  if (options_.encoding == Encoding::csv) {
+    append("#", 1);
+    append(text.data(), text.size());
+    append("\n", 1);
+  } else {
+    std::uint64_t marker = kCommentRecordBits, length = text.size();
+    append(&marker, 8);
+    append(&length, 8);
+    append(text.data(), text.size());
+    static constexpr char zeros[8] = {};
+    append(zeros, (8 - text.size() % 8) % 8);
+  }
+  if (options_.line_buffered) flush();
+}
+
+void Writer::header(const std::vector<std::string>& columns) {
+  if (header_written_) throw Error(name_ + ": header written twice");
+  header_written_ = true;
+  width_ = columns.size();
+  std::vector<char> out;
+  if (options_.encoding == Encoding::csv) {
+    for (const auto& c : pending_comments_) {
+      out.push_back('#');
+      out.insert(out.end(), c.begin(), c.end());
+      out.push_back('\n');
+    }
+    for (std::size_t i = 0; i < columns.size(); ++i) {
+      if (i) out.push_back(',');
+      out.insert(out.end(), columns[i].begin(), columns[i].end());
+    }
+    out.push_back('\n');
+  } else {
+    out.insert(out.end(), kBinaryMagic, kBinaryMagic + sizeof kBinaryMagic);
+    put_u32(out, kBinaryVersion);
+    put_u32(out, static_cast<std::uint32_t>(columns.size()));
+    put_u32(out, static_cast<std::uint32_t>(pending_comments_.size()));
+    for (const auto& c : pending_comments_) put_string(out, c);
+    for (const auto& c : columns) put_string(out, c);
+  }
+  pending_comments_.clear();
+  append(out.data(), out.size());
+  if (options_.line_buffered) flush();
+}
+
+void Writer::row(const double* values) {
+  if (options_.encoding == Encoding::binary) {
+    std::size_t bytes = width_ * sizeof(double);
+    if (bytes > 0) {
+      std::uint64_t first;
+      std::memcpy(&first, values, 8);
+      append(values, bytes);
+      if (first == kCommentRecordBits) {
+        // A NaN carrying our marker payload would read back as a comment; write the canonical NaN.
+        double nan = std::numeric_limits<double>::quiet_NaN();
+        std::memcpy(buffer_.data() + used_ - bytes, &nan, 8);
+      }
+    }
+  } else {
+    if (buffer_.size() - used_ < width_ * kMaxNumber + 1) {
+      flush();
+      if (buffer_.size() < width_ * kMaxNumber + 1) buffer_.resize(width_ * kMaxNumber + 1);
+    }
+    char* out = buffer_.data() + used_;
+    char* start = out;
+    for (std::size_t i = 0; i < width_; ++i) {
+      if (i) *out++ = ',';
+      out += format_double(values[i], out);
+    }
+    *out++ = '\n';
+    used_ += static_cast<std::size_t>(out - start);
+  }
+  ++rows_written_;
+  if (options_.line_buffered) flush();
+}
+
+void Writer::append(const void* data, std::size_t size) {
+  if (buffer_.size() - used_ < size) {
+    flush();
+    if (size > buffer_.size()) {
+      write_all(static_cast<const char*>(data), size);
+      return;
+    }
+  }
+  std::memcpy(buffer_.data() + used_, data, size);
+  used_ += size;
+}
+
+void Writer::flush() {
+  if (used_ == 0) return;
+  std::size_t n = used_;
+  used_ = 0;
+  write_all(buffer_.data(), n);
+}
+
+void Writer::write_all(const char* data, std::size_t size) {
+  while (size > 0) {
+    ssize_t put = ::write(fd_, data, size);
+    if (put < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EPIPE) throw BrokenPipe();
+      throw Error(name_ + ": write error: " + std::strerror(errno));
+    }
+    data += put;
+    size -= static_cast<std::size_t>(put);
+  }
+}
+
+void Writer::close() {
+  if (fd_ < 0) return;
+  if (!header_written_ && !pending_comments_.empty()) {
+    // Nothing but comments: still a readable stream of no columns is impossible, so emit them
+    // as CSV comment lines; a binary stream needs a header, which we do not have.
+    if (options_.encoding == Encoding::csv) {
+      for (const auto& c : pending_comments_) {
+        append("#", 1);
+        append(c.data(), c.size());
+        append("\n", 1);
+      }
+    }
+    pending_comments_.clear();
+  }
+  int fd = fd_;
+  try {
+    flush();
+  } catch (...) {
+    if (owns_fd_) ::close(fd);
+    fd_ = -1;
+    throw;
+  }
+  fd_ = -1;
+  if (owns_fd_ && ::close(fd) != 0) throw Error(name_ + ": close error: " + std::strerror(errno));
+}
+
+}  // namespace momentum::stream

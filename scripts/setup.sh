@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Installs everything momentum needs from Debian's packages, then configures and builds it.
+#   scripts/setup.sh [BUILD_DIR [extra cmake args...]]     (default build dir: build)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(build-essential cmake ninja-build pkg-config python3 git
+  libeigen3-dev libceres-dev libnlopt-cxx-dev libnlopt-dev liburdfdom-dev nlohmann-json3-dev
+  libcli11-dev libgtest-dev libbenchmark-dev scdoc gnuplot-nox clang valgrind)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  sudo=""
+  [[ $(id -u) -eq 0 ]] || sudo="sudo"
+  echo "setup: installing ${missing[*]}" >&2
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+build=${1:-build}
+shift || true
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
+cmake --build "$build" -j"$(nproc)"

@@ -1,0 +1,304 @@
+// Sample streams: exact round trips between the encodings, and every kind of bad input
+// reported with its place, skipped by default and fatal in strict mode.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+
+#include "momentum/stream/columns.hpp"
+#include "momentum/stream/error.hpp"
+#include "momentum/stream/reader.hpp"
+#include "momentum/stream/stats.hpp"
+#include "momentum/stream/writer.hpp"
+
+namespace ms = momentum::stream;
+
+namespace {
+
+std::string temp_path(const std::string& name) {
+  return ::testing::TempDir() + "/momentum_stream_" + std::to_string(::getpid()) + "_" + name;
+}
+
+void write_file(const std::string& path, const std::string& content) {
+  std::ofstream(path, std::ios::binary) << content;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Collects warnings instead of printing them.
+struct CapturedWarnings {
+  std::vector<std::string> messages;
+  momentum::WarningSink previous;
+  CapturedWarnings() {
+    previous = momentum::set_warning_sink([this](std::string_view m) { messages.emplace_back(m); });
+  }
+  ~CapturedWarnings() { momentum::set_warning_sink(previous); }
+};
+
+std::vector<std::vector<double>> read_all(ms::Reader& reader) {
+  std::vector<std::vector<double>> rows;
+  while (const double* row = reader.next()) rows.emplace_back(row, row + reader.columns().size());
+  return rows;
+}
+
+void copy(const std::string& from, const std::string& to, ms::Encoding encoding) {
+  auto in = ms::Reader::open(from);
+  auto out = ms::Writer::open(to, {encoding, false});
+  for (const auto& c : in->leading_comments()) out->comment(c);
+  out->header(in->columns());
+  in->on_comment([&](std::string_view c) { out->comment(c); });
+  while (const double* row = in->next()) out->row(row);
+  out->close();
+}
+
+std::vector<double> special_values() {
+  return {0.0, -0.0, 1.0, -1.5, 0.1, 1.0 / 3.0, 1e308, -1e308, 1.7976931348623157e308,
+          5e-324, -5e-324, 2.2250738585072014e-308, 2.225073858507201e-308 /* subnormal */,
+          std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+          std::numeric_limits<double>::quiet_NaN(), -std::numeric_limits<double>::quiet_NaN(),
+          123456789012345678.0, 9007199254740993.0, 6.02214076e23};
+}
+
+}  // namespace
+
+TEST(Stream, CsvBinaryCsvIsBitExactForEveryKindOfDouble) {
+  std::vector<double> values = special_values();
+  std::mt19937_64 rng(42);
+  for (int i = 0; i < 2000; ++i) {
+    std::uint64_t bits = rng();
+    double v;
+    std::memcpy(&v, &bits, 8);
+    if (!std::isnan(v)) values.push_back(v);  // NaN payloads do not survive text; signs do
+  }
+  std::string csv = temp_path("exact.csv"), bin = temp_path("exact.bin"), csv2 = temp_path("exact2.csv");
+  {
+    auto out = ms::Writer::open(csv);
+    out->comment(" made by the test");
+    out->header({"t", "x"});
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      double row[2] = {double(i), values[i]};
+      out->row(row);
+      if (i == 3) out->comment(" in the middle");
+    }
+    out->close();
+  }
+  copy(csv, bin, ms::Encoding::binary);
+  copy(bin, csv2, ms::Encoding::csv);
+  EXPECT_EQ(read_file(csv), read_file(csv2));
+  auto in = ms::Reader::open(bin);
+  EXPECT_EQ(in->encoding(), ms::Encoding::binary);
+  std::vector<std::string> comments;
+  in->on_comment([&](std::string_view c) { comments.emplace_back(c); });
+  auto rows = read_all(*in);
+  ASSERT_EQ(rows.size(), values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (std::isnan(values[i])) {
+      EXPECT_TRUE(std::isnan(rows[i][1]));
+      EXPECT_EQ(std::signbit(values[i]), std::signbit(rows[i][1]));
+    } else {
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(values[i]), std::bit_cast<std::uint64_t>(rows[i][1])) << i;
+    }
+  }
+  EXPECT_EQ(comments, std::vector<std::string>{" in the middle"});
+  EXPECT_EQ(in->leading_comments(), std::vector<std::string>{" made by the test"});
+}
+
+TEST(Stream, BinaryRowWhoseFirstValueLooksLikeACommentMarkerIsWrittenAsNaN) {
+  std::string bin = temp_path("marker.bin");
+  {
+    auto out = ms::Writer::open(bin, {ms::Encoding::binary, false});
+    out->header({"a", "b"});
+    double row[2] = {std::bit_cast<double>(ms::kCommentRecordBits), 2.0};
+    out->row(row);
+    out->close();
+  }
+  auto in = ms::Reader::open(bin);
+  auto rows = read_all(*in);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_TRUE(std::isnan(rows[0][0]));
+  EXPECT_EQ(rows[0][1], 2.0);
+}
+
+TEST(Stream, BadRowsAreReportedWithTheirLineAndSkipped) {
+  CapturedWarnings warnings;
+  std::string path = temp_path("bad.csv");
+  write_file(path, "# c\nt,q1\n0,1\n0.1,x\n0.2\n0.3,1,2\n\n0.4,+4\n0.5, 5 \r\n");
+  auto in = ms::Reader::open(path);
+  auto rows = read_all(*in);
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[1][1], 4.0);
+  EXPECT_EQ(rows[2][1], 5.0);
+  EXPECT_EQ(in->rows_skipped(), 3u);
+  ASSERT_EQ(warnings.messages.size(), 3u);
+  EXPECT_EQ(warnings.messages[0], path + ":4: bad number 'x' in column 'q1'");
+  EXPECT_EQ(warnings.messages[1], path + ":5: expected 2 fields, got 1");
+  EXPECT_EQ(warnings.messages[2], path + ":6: expected 2 fields, got more");
+}
+
+TEST(Stream, StrictModeStopsAtTheFirstBadRow) {
+  std::string path = temp_path("strict.csv");
+  write_file(path, "t,q1\n0,1\n0.1,nanx\n0.2,3\n");
+  ms::ReaderOptions options;
+  options.strict = true;
+  auto in = ms::Reader::open(path, options);
+  ASSERT_NE(in->next(), nullptr);
+  try {
+    in->next();
+    FAIL() << "no error";
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":3: bad number 'nanx' in column 'q1'");
+  }
+}
+
+TEST(Stream, HeaderErrorsNameTheFile) {
+  auto expect_error = [](const std::string& content, const std::string& fragment) {
+    std::string path = temp_path("header.csv");
+    write_file(path, content);
+    try {
+      ms::Reader::open(path);
+      ADD_FAILURE() << "no error for " << fragment;
+    } catch (const momentum::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).rfind(path, 0), 0u) << e.what();
+    }
+  };
+  expect_error("", "empty input");
+  expect_error("# only a comment\n", "no header line");
+  expect_error("t,q1,t\n", "duplicate column name 't'");
+  expect_error("t,,q1\n", "empty column name (column 2)");
+  expect_error(std::string("\x89MOLOX\r\n", 8), "wrong magic");
+  std::string wrong_version("\x89MOLOG\r\n\x07\0\0\0", 12);
+  expect_error(wrong_version, "unsupported binary version 7");
+  std::string cut_header("\x89MOLOG\r\n\x01\0\0\0\x02\0\0\0", 16);
+  expect_error(cut_header, "truncated header");
+}
+
+TEST(Stream, TruncatedBinaryRecordIsReportedWithItsByteOffset) {
+  CapturedWarnings warnings;
+  std::string bin = temp_path("cut.bin");
+  {
+    auto out = ms::Writer::open(bin, {ms::Encoding::binary, false});
+    out->header({"t", "q1"});
+    double row[2] = {0, 1};
+    out->row(row);
+    out->row(row);
+    out->close();
+  }
+  std::string bytes = read_file(bin);
+  write_file(bin, bytes.substr(0, bytes.size() - 3));
+  auto in = ms::Reader::open(bin);
+  auto rows = read_all(*in);
+  EXPECT_EQ(rows.size(), 1u);
+  ASSERT_EQ(warnings.messages.size(), 1u);
+  std::size_t header_size = bytes.size() - 32;
+  EXPECT_EQ(warnings.messages[0],
+            bin + ": byte " + std::to_string(header_size + 16) + ": truncated record (13 of 16 bytes)");
+}
+
+TEST(Stream, MissingColumnIsAnErrorNamingIt) {
+  std::string path = temp_path("cols.csv");
+  write_file(path, "t,q1\n0,1\n");
+  auto in = ms::Reader::open(path);
+  EXPECT_EQ(in->require("q1"), 1u);
+  try {
+    in->require("dq1");
+    FAIL();
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": missing column 'dq1'");
+  }
+}
+
+TEST(Stream, HeaderlessCsvTakesNamesAndDropsUnderscoreColumns) {
+  std::string path = temp_path("vendor.csv");
+  write_file(path, "1,2,3\n4,5,6\n");
+  ms::ReaderOptions options;
+  options.names = {"t", "_", "q1"};
+  auto in = ms::Reader::open(path, options);
+  EXPECT_EQ(in->columns(), (std::vector<std::string>{"t", "q1"}));
+  auto rows = read_all(*in);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0], (std::vector<double>{1, 3}));
+  EXPECT_EQ(rows[1], (std::vector<double>{4, 6}));
+}
+
+TEST(Stream, RowsArriveFromAPipeBeforeItCloses) {
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  int saved = ::dup(0);
+  ::dup2(fds[0], 0);
+  ::close(fds[0]);
+  const char first[] = "t,q1\n0,1\n";
+  ASSERT_EQ(::write(fds[1], first, sizeof first - 1), ssize_t(sizeof first - 1));
+  auto in = ms::Reader::open("-");
+  EXPECT_TRUE(in->live());
+  const double* row = in->next();  // must not wait for end of input
+  ASSERT_NE(row, nullptr);
+  EXPECT_EQ(row[1], 1.0);
+  ::close(fds[1]);
+  EXPECT_EQ(in->next(), nullptr);
+  ::dup2(saved, 0);
+  ::close(saved);
+}
+
+TEST(Stream, LongStreamsUseABoundedBuffer) {
+  // A line longer than the initial window still parses (the window grows to the line), and
+  // many lines do not grow it: the reader keeps no rows.
+  std::string path = temp_path("long.csv");
+  {
+    std::ofstream out(path);
+    out << "t";
+    for (int i = 0; i < 40000; ++i) out << ",c" << i;
+    out << "\n";
+    for (int r = 0; r < 3; ++r) {
+      out << r;
+      for (int i = 0; i < 40000; ++i) out << ",0.123456789012345";
+      out << "\n";
+    }
+  }
+  auto in = ms::Reader::open(path);
+  EXPECT_EQ(in->columns().size(), 40001u);
+  EXPECT_EQ(read_all(*in).size(), 3u);
+}
+
+TEST(Columns, RangesExpandAndMissingColumnsAreNamed) {
+  EXPECT_EQ(ms::expand_column_list("t,q1-3,tau_m2"),
+            (std::vector<std::string>{"t", "q1", "q2", "q3", "tau_m2"}));
+  EXPECT_THROW(ms::expand_column_list("q3-1"), momentum::Error);
+  EXPECT_THROW(ms::expand_column_list("t,,q1"), momentum::Error);
+  EXPECT_EQ(ms::count_joint_columns({"t", "q1", "q2", "dq1"}, "q"), 2u);
+}
+
+TEST(Stats, CountsGapsBackwardsDuplicatesFrozenAndNaN) {
+  ms::StreamStats stats({"t", "q1"});
+  auto add = [&](double t, double q, int line) {
+    double row[2] = {t, q};
+    stats.add(row, "f:" + std::to_string(line));
+  };
+  int line = 2;
+  double t = 0;
+  for (int i = 0; i < 100; ++i, t += 0.001) add(t, i, line++);  // regular 1 ms
+  add(t + 0.004, 1000, line++);                                 // gap of 5 periods
+  add(t + 0.0035, 1001, line++);                                // backwards
+  add(t + 0.0035, 1001, line++);                                // exact duplicate
+  for (int i = 0; i < 12; ++i) add(t + 0.005 + 0.001 * i, 7, line++);  // frozen
+  add(t + 0.02, std::nan(""), line++);
+  auto s = stats.summary();
+  EXPECT_EQ(s.rows, 116u);
+  EXPECT_DOUBLE_EQ(s.dt_median, 0.001);
+  EXPECT_EQ(s.gaps.count, 2u);  // the 5-period gap and the last step (1.5 periods is no gap)
+  EXPECT_EQ(s.gaps.first.front(), "f:102");
+  EXPECT_EQ(s.backwards.count, 1u);
+  EXPECT_EQ(s.backwards.first.front(), "f:103");
+  EXPECT_EQ(s.duplicates.count, 1u);
+  EXPECT_EQ(s.frozen.count, 1u);
+  EXPECT_EQ(s.nan_per_column[1], 1u);
+}
