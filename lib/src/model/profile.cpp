@@ -1,0 +1,209 @@
+#include "momentum/model/profile.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/version.hpp"
+
+namespace momentum::model {
+
+namespace {
+
+std::string in_quotes(const std::string& text) { return "\"" + text + "\""; }
+
+[[noreturn]] void fail(const std::filesystem::path& path, const std::string& message,
+                       std::uint64_t line = 0) {
+  throw Error(located(path.string(), line, message));
+}
+
+const char* type_name(const nlohmann::json& value) { return value.type_name(); }
+
+std::string required_string(const nlohmann::json& document, const char* key,
+                            const std::filesystem::path& path) {
+  const auto it = document.find(key);
+  if (it == document.end()) fail(path, std::string("missing required key ") + in_quotes(key));
+  if (!it->is_string()) {
+    fail(path, in_quotes(key) + " must be a string, not " + type_name(*it));
+  }
+  std::string value = it->get<std::string>();
+  if (value.empty()) fail(path, in_quotes(key) + " is empty");
+  return value;
+}
+
+double finite_number(const nlohmann::json& value, const std::string& what,
+                     const std::filesystem::path& path) {
+  if (!value.is_number()) fail(path, what + " must be a number, not " + type_name(value));
+  const double x = value.get<double>();
+  if (!std::isfinite(x)) fail(path, what + " must be finite");
+  return x;
+}
+
+// nlohmann's parse_error::what() reads "[json.exception.parse_error.101] parse error at line
+// 3, column 5: syntax error while parsing ..."; keep the part after the location.
+std::string parse_error_text(const nlohmann::json::parse_error& e) {
+  std::string text = e.what();
+  const auto colon = text.find(": ", text.find("parse error"));
+  if (colon != std::string::npos) text = text.substr(colon + 2);
+  if (!text.empty() && text.back() == '.') text.pop_back();
+  return text;
+}
+
+std::uint64_t line_of_byte(const std::string& text, std::size_t byte) {
+  byte = std::min(byte, text.size());
+  // nlohmann's byte position is one past the offending character.
+  const std::size_t end = byte > 0 ? byte - 1 : 0;
+  return 1 + static_cast<std::uint64_t>(
+                 std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(end), '\n'));
+}
+
+}  // namespace
+
+const std::vector<std::string>& known_profile_keys() {
+  static const std::vector<std::string> keys = {
+      "urdf",     "root",       "tip",        "gravity",  "joints",   "observer",
+      "friction", "thresholds", "provenance", "payloads", "dynamics", "name",
+      "description"};
+  return keys;
+}
+
+Profile load_profile(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, std::string("cannot open profile: ") + std::strerror(errno));
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) fail(path, "cannot read profile");
+  const std::string text = buffer.str();
+  nlohmann::json document;
+  try {
+    document = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/true,
+                                     /*ignore_comments=*/true);
+  } catch (const nlohmann::json::parse_error& e) {
+    fail(path, "invalid json: " + parse_error_text(e), line_of_byte(text, e.byte));
+  }
+  return profile_from_document(std::move(document), path);
+}
+
+Profile profile_from_document(nlohmann::json document, const std::filesystem::path& path) {
+  if (!document.is_object()) {
+    fail(path, std::string("a profile must be a json object, not ") + type_name(document));
+  }
+  Profile profile;
+  profile.path = path;
+  const auto& known = known_profile_keys();
+  for (const auto& item : document.items()) {
+    if (std::find(known.begin(), known.end(), item.key()) == known.end()) {
+      warn(located(path.string(), 0, "unknown key " + in_quotes(item.key()) + " ignored"));
+    }
+  }
+  const std::filesystem::path urdf = required_string(document, "urdf", path);
+  profile.urdf = urdf.is_absolute() ? urdf : path.parent_path() / urdf;
+  profile.root = required_string(document, "root", path);
+  profile.tip = required_string(document, "tip", path);
+
+  if (const auto it = document.find("gravity"); it != document.end()) {
+    if (!it->is_array() || it->size() != 3) {
+      fail(path, "\"gravity\" must be an array of 3 numbers (m/s^2, root frame)");
+    }
+    for (int k = 0; k < 3; ++k) {
+      profile.gravity[k] = finite_number((*it)[static_cast<std::size_t>(k)],
+                                         "\"gravity\"[" + std::to_string(k) + "]", path);
+    }
+  }
+
+  if (const auto it = document.find("joints"); it != document.end()) {
+    if (!it->is_array()) fail(path, "\"joints\" must be an array of objects, one per joint");
+    std::size_t index = 0;
+    for (const auto& entry : *it) {
+      ++index;
+      const std::string where = "\"joints\"[" + std::to_string(index - 1) + "]";
+      if (!entry.is_object()) fail(path, where + " must be an object, not " + type_name(entry));
+      JointDrive drive;
+      for (const auto& item : entry.items()) {
+        if (item.key() == "k_i") {
+          drive.k_i = finite_number(item.value(), where + ".k_i", path);
+        } else if (item.key() == "rotor_inertia") {
+          drive.rotor_inertia = finite_number(item.value(), where + ".rotor_inertia", path);
+          if (drive.rotor_inertia < 0.0) fail(path, where + ".rotor_inertia must be >= 0");
+        } else if (item.key() != "name") {
+          warn(located(path.string(), 0, "unknown key " + in_quotes(item.key()) + " in " + where +
+                                             " ignored"));
+        }
+      }
+      profile.joints.push_back(drive);
+    }
+  }
+  profile.document = std::move(document);
+  return profile;
+}
+
+void save_profile_atomically(const nlohmann::json& document, const std::filesystem::path& path) {
+  const std::string text = document.dump(2) + "\n";
+  std::filesystem::path folder = path.parent_path();
+  if (folder.empty()) folder = ".";
+  std::string temp = (folder / ("." + path.filename().string() + ".XXXXXX")).string();
+  const int fd = ::mkstemp(temp.data());
+  if (fd < 0) fail(path, std::string("cannot create a temporary file: ") + std::strerror(errno));
+  auto abandon = [&](const std::string& what) {
+    const int saved = errno;
+    ::close(fd);
+    ::unlink(temp.c_str());
+    fail(path, what + ": " + std::strerror(saved));
+  };
+  // Keep the mode of the profile being replaced; new profiles get rw-r--r--.
+  struct stat old {};
+  const mode_t mode = ::stat(path.c_str(), &old) == 0 ? (old.st_mode & 07777) : 0644;
+  if (::fchmod(fd, mode) != 0) abandon("cannot set the mode of the temporary file");
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      abandon("cannot write the temporary file");
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0) abandon("cannot sync the temporary file");
+  if (::close(fd) != 0) {
+    const int saved = errno;
+    ::unlink(temp.c_str());
+    fail(path, std::string("cannot close the temporary file: ") + std::strerror(saved));
+  }
+  if (::rename(temp.c_str(), path.c_str()) != 0) {
+    const int saved = errno;
+    ::unlink(temp.c_str());
+    fail(path, std::string("cannot replace the profile: ") + std::strerror(saved));
+  }
+  // Make the rename itself durable.
+  const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
+}
+
+void append_provenance(nlohmann::json& document, const std::string& tool,
+                       const nlohmann::json& details) {
+  auto& list = document["provenance"];
+  if (list.is_null()) list = nlohmann::json::array();
+  if (!list.is_array()) {
+    throw Error("profile: \"provenance\" must be an array, not " + std::string(list.type_name()));
+  }
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  ::gmtime_r(&now, &utc);
+  char stamp[32];
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  list.push_back({{"tool", tool}, {"version", kVersion}, {"time", stamp}, {"details", details}});
+}
+
+}  // namespace momentum::model
