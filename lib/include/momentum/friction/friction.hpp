@@ -1,0 +1,131 @@
+// Per-joint friction as the rest of the suite uses it: a FrictionModel (model kind, update
+// options and parameters per joint, read from and written to the profile's "friction" section)
+// and a stateful evaluator, JointFriction, that turns a velocity sample into a friction torque.
+// The observer (mo-observe), the simulator (mo-sim) and the fitter (mo-lugre-fit) all go through
+// JointFriction::step, so they agree sample for sample.
+//
+// Profile section (man 5 momentum-profile):
+//   "friction": {"model": "lugre",                 // or "stribeck", "coulomb-viscous"
+//                "update": "exact",                // or "semi-implicit" (LuGre only)
+//                "velocity_deadband": 0.0,         // rad/s, optional
+//                "velocity_cutoff_hz": 0.0,        // Hz, optional, 0 = no low-pass
+//                "joints": [{"sigma0": 98467.9, "sigma1": 314.0, "sigma2": 6.49,
+//                            "tau_c": 7.83, "tau_s": 4.00, "w_s": 0.0978}, ...]}
+#pragma once
+
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "momentum/friction/lugre.hpp"
+
+namespace momentum::friction {
+
+// How the velocity that drives the model is conditioned, and how LuGre is advanced.
+//
+// Standstill: a resting joint's measured velocity is noise around zero. Driven by it, LuGre
+// keeps relaxing its bristle state towards +-g(w)/s0 and loses the friction it held, so the
+// compensated residual of a resting joint wanders. A deadband (|w| below it counts as rest, so
+// LuGre holds z and a static model gives 0) and/or a first-order low-pass on the velocity
+// reduce that; both default to off because they also delay or remove genuine slow motion.
+struct Options {
+  LugreUpdate update = LugreUpdate::exact;
+  // Velocities with |w| < velocity_deadband are treated as 0, rad/s (after the low-pass). >= 0.
+  double velocity_deadband = 0.0;
+  // Cutoff of a first-order low-pass on the velocity, Hz; 0 disables it. >= 0.
+  double velocity_cutoff_hz = 0.0;
+
+  // False (with the reason in `why`, when non-null) for negative or non-finite values.
+  bool is_valid(std::string* why) const;
+};
+
+// A friction model for every joint of a chain, in chain order (joint 1 nearest the root).
+struct FrictionModel {
+  Kind kind = Kind::lugre;
+  Options options;
+  std::vector<Parameters<double>> joints;
+
+  // Checks options and every joint's parameters (see is_valid(Kind, ...)); the reason names
+  // the joint (1-based).
+  bool is_valid(std::string* why) const;
+};
+
+// Reads a profile's "friction" section. Throws momentum::Error ("friction: joint 2: missing
+// 'tau_s'", ...; the caller adds the file name) when the section is not an object, the model
+// name is unknown, "joints" is missing or not an array of objects, a parameter the model needs
+// is missing or not a finite number, or the result fails FrictionModel::is_valid. Keys it does
+// not know (in the section or a joint) are listed in `warnings` (when non-null), not errors.
+FrictionModel friction_from_json(const nlohmann::json& section,
+                                 std::vector<std::string>* warnings = nullptr);
+
+// The section for a model: "model", "update" (LuGre), the velocity options when non-zero, and
+// per joint the parameters that the model uses.
+nlohmann::json to_json(const FrictionModel& model);
+
+// One joint's friction with its state (LuGre bristle deflection, velocity filter).
+template <class T>
+class JointFriction {
+ public:
+  JointFriction(Kind kind, const Parameters<T>& parameters, const Options& options = {})
+      : kind_(kind), p_(parameters), options_(options) {}
+
+  // Forgets the state; the next step() is a first sample again.
+  void reset() { started_ = false; }
+
+  // Friction torque (Nm) for the sample with measured velocity w (rad/s), dt seconds (> 0)
+  // after the previous sample. On the first sample after construction or reset() dt is
+  // ignored and LuGre starts in its steady state for that velocity (z = g(w) sign(w) / s0), so
+  // a log that starts in motion has no start-up transient.
+  T step(const T& w_measured, double dt) {
+    using std::abs;
+    using std::exp;
+    if (!started_) {
+      w_ = w_measured;
+    } else if (options_.velocity_cutoff_hz > 0) {
+      const double alpha = -std::expm1(-2.0 * std::numbers::pi * options_.velocity_cutoff_hz * dt);
+      w_ = w_ + alpha * (w_measured - w_);
+    } else {
+      w_ = w_measured;
+    }
+    const T w = abs(w_) < T(options_.velocity_deadband) ? T(0) : w_;
+    switch (kind_) {
+      case Kind::coulomb_viscous:
+        started_ = true;
+        return coulomb_viscous_torque(p_, w);
+      case Kind::stribeck:
+        started_ = true;
+        return stribeck_torque(p_, w);
+      case Kind::lugre:
+        break;
+    }
+    if (!started_) {
+      started_ = true;
+      z_ = stribeck_level(p_, w) * detail::sign(w) / p_.sigma0;
+      return stribeck_torque(p_, w);
+    }
+    return lugre_step(p_, w, dt, options_.update, z_);
+  }
+
+  // LuGre bristle deflection after the last step, rad (0 for static models).
+  const T& z() const { return z_; }
+  // The conditioned velocity of the last step (before the deadband), rad/s.
+  const T& filtered_velocity() const { return w_; }
+  Kind kind() const { return kind_; }
+  const Parameters<T>& parameters() const { return p_; }
+
+ private:
+  Kind kind_;
+  Parameters<T> p_;
+  Options options_;
+  bool started_ = false;
+  T z_ = T(0);
+  T w_ = T(0);
+};
+
+// One evaluator per joint of `model`, in chain order.
+std::vector<JointFriction<double>> make_joint_frictions(const FrictionModel& model);
+
+}  // namespace momentum::friction

@@ -1,0 +1,139 @@
+// Joint friction models, templated on the scalar T (double, or ceres::Jet so that the fitter
+// differentiates through them): Coulomb-viscous, Stribeck (the LuGre steady state) and LuGre
+// with a stable discrete update. One implementation serves the observer, the simulator and the
+// fitter.
+//
+// LuGre (Zhang et al. 2020, eq. 12):  tau_f = s0 z + s1 dz/dt + s2 w,
+//   dz/dt = w - s0 |w| z / g(w),   g(w) = tau_c + (tau_s - tau_c) exp(-(w/w_s)^2).
+// The bristle equation is stiff (s0 ~ 1e5 Nm/rad): explicit Euler diverges at dt = 8 ms, so it
+// is not offered. For a velocity held constant over a step, z relaxes exponentially to
+// z_ss = g(w) sign(w) / s0 with rate lambda = s0 |w| / g(w); the exact update uses that. The
+// paper's semi-implicit update (eq. 13b) is offered for comparison. Both keep z a convex
+// combination of its previous value and z_ss, so |z| <= max(tau_c, tau_s) / s0 forever once it
+// holds (it holds for z = 0), whatever the velocity sequence and the step.
+//
+// Units: w rad/s (m/s for prismatic joints), torques Nm (N), z rad, dt s.
+#pragma once
+
+#include <cmath>
+#include <string>
+
+namespace momentum::friction {
+
+// Six parameters per joint, in this order everywhere a vector of them is used (fitter, JSON):
+// sigma0, sigma1, sigma2, tau_c, tau_s, w_s. Static models ignore what they do not use
+// (Stribeck: sigma0, sigma1; Coulomb-viscous: sigma0, sigma1, tau_s, w_s).
+// Direction asymmetry (separate levels for negative velocity and a torque offset) would add
+// fields here and change stribeck_level() and the static curves only: every model reads the
+// levels through those functions.
+template <class T>
+struct Parameters {
+  T sigma0 = T(0);  // bristle stiffness, Nm/rad, > 0 (LuGre)
+  T sigma1 = T(0);  // bristle (micro) damping, Nm s/rad, >= 0 (LuGre)
+  T sigma2 = T(0);  // viscous coefficient, Nm s/rad, >= 0
+  T tau_c = T(0);   // Coulomb level, Nm, > 0 (>= 0 for Coulomb-viscous)
+  T tau_s = T(0);   // static (breakaway) level, Nm, > 0
+  T w_s = T(1);     // Stribeck velocity, rad/s, > 0
+
+  static constexpr int kSize = 6;
+
+  // From / to a plain array of kSize values in the order above.
+  static Parameters from_array(const T* x) { return {x[0], x[1], x[2], x[3], x[4], x[5]}; }
+  void to_array(T* x) const {
+    x[0] = sigma0; x[1] = sigma1; x[2] = sigma2; x[3] = tau_c; x[4] = tau_s; x[5] = w_s;
+  }
+  // Converts every parameter to another scalar type (double -> Jet for the fitter).
+  template <class U>
+  Parameters<U> cast() const {
+    return {U(sigma0), U(sigma1), U(sigma2), U(tau_c), U(tau_s), U(w_s)};
+  }
+};
+
+// Names of the parameters in array order, as used in the profile's JSON.
+inline constexpr const char* kParameterNames[6] = {"sigma0", "sigma1", "sigma2",
+                                                   "tau_c",  "tau_s",  "w_s"};
+
+// Which model a joint uses.
+enum class Kind { coulomb_viscous, stribeck, lugre };
+
+// How the LuGre bristle state is advanced over one sample interval.
+enum class LugreUpdate {
+  exact,          // exponential relaxation for a velocity constant over the step (default)
+  semi_implicit,  // the paper's eq. 13b (backward Euler in z)
+};
+
+namespace detail {
+template <class T>
+T sign(const T& w) {
+  if (w > T(0)) return T(1);
+  if (w < T(0)) return T(-1);
+  return T(0);
+}
+// (1 - exp(-x)) / x for x >= 0, accurate for every x (series near 0 so Jets keep derivatives).
+template <class T>
+T one_minus_exp_over(const T& x) {
+  using std::expm1;
+  if (x < T(1e-4)) return T(1) - x * (T(0.5) - x * (T(1.0 / 6) - x * T(1.0 / 24)));
+  return -expm1(-x) / x;
+}
+}  // namespace detail
+
+// The Stribeck level g(w) = tau_c + (tau_s - tau_c) exp(-(w/w_s)^2), Nm: the sliding friction
+// magnitude at velocity w. Positive whenever tau_c > 0 and tau_s > 0.
+template <class T>
+T stribeck_level(const Parameters<T>& p, const T& w) {
+  using std::exp;
+  const T x = w / p.w_s;
+  return p.tau_c + (p.tau_s - p.tau_c) * exp(-x * x);
+}
+
+// Static Stribeck friction, Nm: g(w) sign(w) + sigma2 w (0 at w = 0). This is the LuGre steady
+// state for a constant velocity.
+template <class T>
+T stribeck_torque(const Parameters<T>& p, const T& w) {
+  return stribeck_level(p, w) * detail::sign(w) + p.sigma2 * w;
+}
+
+// Coulomb-viscous friction, Nm: tau_c sign(w) + sigma2 w (0 at w = 0).
+template <class T>
+T coulomb_viscous_torque(const Parameters<T>& p, const T& w) {
+  return p.tau_c * detail::sign(w) + p.sigma2 * w;
+}
+
+// Advances the LuGre bristle state z (rad) over a step of dt seconds (>= 0) during which the
+// velocity is w, and returns the friction torque at the end of the step, Nm:
+// sigma0 z + sigma1 dz/dt + sigma2 w, with dz/dt = w - s0 |w| z / g(w) evaluated at the new z.
+// Requires sigma0 > 0 and g(w) > 0 (see is_valid()); no other failure case.
+template <class T>
+T lugre_step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, T& z) {
+  using std::abs;
+  using std::exp;
+  const T rate = p.sigma0 * abs(w) / stribeck_level(p, w);  // lambda, 1/s
+  T dz;
+  if (update == LugreUpdate::exact) {
+    const T decay = exp(-rate * dt);
+    // z(dt) = z e^{-lambda dt} + w (1 - e^{-lambda dt}) / lambda; dz/dt(dt) = (w - lambda z) e^{-lambda dt}.
+    dz = (w - rate * z) * decay;
+    z = z * decay + w * dt * detail::one_minus_exp_over(T(rate * dt));
+  } else {
+    dz = (w - rate * z) / (T(1) + rate * dt);
+    z = z + dz * dt;
+  }
+  return p.sigma0 * z + p.sigma1 * dz + p.sigma2 * w;
+}
+
+// Checks a parameter set for a model: finite numbers; sigma0 > 0 and sigma1 >= 0 for LuGre;
+// tau_c > 0, tau_s > 0, w_s > 0 for LuGre and Stribeck; tau_c >= 0 for Coulomb-viscous;
+// sigma2 >= 0 always. Returns false with the reason in `why` (when non-null).
+bool is_valid(Kind kind, const Parameters<double>& p, std::string* why);
+
+// "coulomb-viscous", "stribeck", "lugre".
+const char* kind_name(Kind kind);
+// Inverse of kind_name (also accepts "coulomb_viscous"); false when unknown.
+bool parse_kind(const std::string& name, Kind* kind);
+// "exact", "semi-implicit".
+const char* update_name(LugreUpdate update);
+// Inverse of update_name (also accepts "semi_implicit"); false when unknown.
+bool parse_update(const std::string& name, LugreUpdate* update);
+
+}  // namespace momentum::friction

@@ -1,0 +1,184 @@
+#include "momentum/friction/friction.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <string>
+
+#include "momentum/stream/error.hpp"
+
+namespace momentum::friction {
+namespace {
+
+bool fail(std::string* why, std::string message) {
+  if (why) *why = std::move(message);
+  return false;
+}
+
+std::string number(double value) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  return buffer;
+}
+
+// Parameters each model reads, as indices into the array order.
+std::vector<int> used_parameters(Kind kind) {
+  switch (kind) {
+    case Kind::coulomb_viscous: return {2, 3};
+    case Kind::stribeck: return {2, 3, 4, 5};
+    case Kind::lugre: return {0, 1, 2, 3, 4, 5};
+  }
+  return {};
+}
+
+[[noreturn]] void error(const std::string& message) { throw Error("friction: " + message); }
+
+}  // namespace
+
+const char* kind_name(Kind kind) {
+  switch (kind) {
+    case Kind::coulomb_viscous: return "coulomb-viscous";
+    case Kind::stribeck: return "stribeck";
+    case Kind::lugre: return "lugre";
+  }
+  return "?";
+}
+
+bool parse_kind(const std::string& name, Kind* kind) {
+  if (name == "coulomb-viscous" || name == "coulomb_viscous") *kind = Kind::coulomb_viscous;
+  else if (name == "stribeck") *kind = Kind::stribeck;
+  else if (name == "lugre") *kind = Kind::lugre;
+  else return false;
+  return true;
+}
+
+const char* update_name(LugreUpdate update) {
+  return update == LugreUpdate::exact ? "exact" : "semi-implicit";
+}
+
+bool parse_update(const std::string& name, LugreUpdate* update) {
+  if (name == "exact") *update = LugreUpdate::exact;
+  else if (name == "semi-implicit" || name == "semi_implicit") *update = LugreUpdate::semi_implicit;
+  else return false;
+  return true;
+}
+
+bool is_valid(Kind kind, const Parameters<double>& p, std::string* why) {
+  double x[Parameters<double>::kSize];
+  p.to_array(x);
+  for (int i : used_parameters(kind)) {
+    if (!std::isfinite(x[i])) return fail(why, std::string(kParameterNames[i]) + " is not finite");
+  }
+  if (p.sigma2 < 0) return fail(why, "sigma2 = " + number(p.sigma2) + " is negative");
+  if (kind == Kind::coulomb_viscous) {
+    if (p.tau_c < 0) return fail(why, "tau_c = " + number(p.tau_c) + " is negative");
+    return true;
+  }
+  if (!(p.tau_c > 0)) return fail(why, "tau_c = " + number(p.tau_c) + " is not positive");
+  if (!(p.tau_s > 0)) return fail(why, "tau_s = " + number(p.tau_s) + " is not positive");
+  if (!(p.w_s > 0)) return fail(why, "w_s = " + number(p.w_s) + " is not positive");
+  if (kind == Kind::lugre) {
+    if (!(p.sigma0 > 0)) return fail(why, "sigma0 = " + number(p.sigma0) + " is not positive");
+    if (p.sigma1 < 0) return fail(why, "sigma1 = " + number(p.sigma1) + " is negative");
+  }
+  return true;
+}
+
+bool Options::is_valid(std::string* why) const {
+  if (!std::isfinite(velocity_deadband) || velocity_deadband < 0)
+    return fail(why, "velocity_deadband = " + number(velocity_deadband) + " is not a finite value >= 0");
+  if (!std::isfinite(velocity_cutoff_hz) || velocity_cutoff_hz < 0)
+    return fail(why, "velocity_cutoff_hz = " + number(velocity_cutoff_hz) + " is not a finite value >= 0");
+  return true;
+}
+
+bool FrictionModel::is_valid(std::string* why) const {
+  if (!options.is_valid(why)) return false;
+  for (std::size_t j = 0; j < joints.size(); ++j) {
+    std::string reason;
+    if (!friction::is_valid(kind, joints[j], &reason))
+      return fail(why, "joint " + std::to_string(j + 1) + ": " + reason);
+  }
+  return true;
+}
+
+FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std::string>* warnings) {
+  if (!section.is_object()) error("the section is not an object");
+  FrictionModel model;
+  static const std::set<std::string> known = {"model", "update", "velocity_deadband",
+                                              "velocity_cutoff_hz", "joints"};
+  for (const auto& item : section.items()) {
+    if (!known.count(item.key()) && warnings) warnings->push_back("friction: unknown key '" + item.key() + "'");
+  }
+  const auto model_it = section.find("model");
+  if (model_it == section.end()) error("missing 'model'");
+  if (!model_it->is_string() || !parse_kind(model_it->get<std::string>(), &model.kind))
+    error("unknown model " + model_it->dump() + " (expected lugre, stribeck or coulomb-viscous)");
+  if (const auto it = section.find("update"); it != section.end()) {
+    if (!it->is_string() || !parse_update(it->get<std::string>(), &model.options.update))
+      error("unknown update " + it->dump() + " (expected exact or semi-implicit)");
+  }
+  auto read_number = [&](const nlohmann::json& object, const char* key, double* value,
+                         const std::string& where) {
+    const auto it = object.find(key);
+    if (it == object.end()) return false;
+    if (!it->is_number() || !std::isfinite(it->get<double>()))
+      error(where + "'" + key + "' is not a finite number");
+    *value = it->get<double>();
+    return true;
+  };
+  read_number(section, "velocity_deadband", &model.options.velocity_deadband, "");
+  read_number(section, "velocity_cutoff_hz", &model.options.velocity_cutoff_hz, "");
+  const auto joints = section.find("joints");
+  if (joints == section.end()) error("missing 'joints'");
+  if (!joints->is_array()) error("'joints' is not an array");
+  const std::vector<int> used = used_parameters(model.kind);
+  for (std::size_t j = 0; j < joints->size(); ++j) {
+    const auto& entry = (*joints)[j];
+    const std::string where = "joint " + std::to_string(j + 1) + ": ";
+    if (!entry.is_object()) error(where + "not an object");
+    double x[Parameters<double>::kSize];
+    Parameters<double>().to_array(x);
+    for (int i : used) {
+      if (!read_number(entry, kParameterNames[i], &x[i], where))
+        error(where + "missing '" + kParameterNames[i] + "' (needed by the " + kind_name(model.kind) + " model)");
+    }
+    for (const auto& item : entry.items()) {
+      bool is_parameter = false;
+      for (const char* name : kParameterNames) is_parameter = is_parameter || item.key() == name;
+      if (!is_parameter && warnings) warnings->push_back("friction: " + where + "unknown key '" + item.key() + "'");
+    }
+    model.joints.push_back(Parameters<double>::from_array(x));
+  }
+  std::string why;
+  if (!model.is_valid(&why)) error(why);
+  return model;
+}
+
+nlohmann::json to_json(const FrictionModel& model) {
+  nlohmann::json section = nlohmann::json::object();
+  section["model"] = kind_name(model.kind);
+  if (model.kind == Kind::lugre) section["update"] = update_name(model.options.update);
+  if (model.options.velocity_deadband != 0) section["velocity_deadband"] = model.options.velocity_deadband;
+  if (model.options.velocity_cutoff_hz != 0) section["velocity_cutoff_hz"] = model.options.velocity_cutoff_hz;
+  nlohmann::json joints = nlohmann::json::array();
+  const std::vector<int> used = used_parameters(model.kind);
+  for (const auto& p : model.joints) {
+    double x[Parameters<double>::kSize];
+    p.to_array(x);
+    nlohmann::json entry = nlohmann::json::object();
+    for (int i : used) entry[kParameterNames[i]] = x[i];
+    joints.push_back(std::move(entry));
+  }
+  section["joints"] = std::move(joints);
+  return section;
+}
+
+std::vector<JointFriction<double>> make_joint_frictions(const FrictionModel& model) {
+  std::vector<JointFriction<double>> out;
+  out.reserve(model.joints.size());
+  for (const auto& p : model.joints) out.emplace_back(model.kind, p, model.options);
+  return out;
+}
+
+}  // namespace momentum::friction
