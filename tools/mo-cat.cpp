@@ -2,6 +2,7 @@
 // describe a log (--stats).
 #include <cinttypes>
 #include <cstdio>
+#include <optional>
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/stream/columns.hpp"
@@ -47,10 +48,10 @@ int main(int argc, char** argv) {
   tool.add_inputs("input streams, concatenated (same columns); - or none: stdin");
   tool.add_stream_output();
   std::string columns;
-  std::int64_t head = -1;
+  std::optional<std::uint64_t> head;
   bool stats = false;
   tool.app().add_option("-c,--columns", columns, "columns to keep, in this order (t,q1-6,...)")->type_name("LIST");
-  tool.app().add_option("--head", head, "stop after N rows")->type_name("N")->check(CLI::NonNegativeNumber);
+  tool.app().add_option("--head", head, "stop after N rows")->type_name("N")->check(cli::whole_number());
   tool.app().add_flag("--stats", stats, "describe the stream on stdout instead of copying it");
 
   return tool.run(argc, argv, [&] {
@@ -85,7 +86,7 @@ int main(int argc, char** argv) {
           if (raw->interactive()) in->before_read([raw] { raw->flush(); });
         }
       }
-      while (head < 0 || rows < static_cast<std::uint64_t>(head)) {
+      while (!head || rows < *head) {
         const double* row = in->next();
         if (!row) break;
         for (std::size_t i = 0; i < pick.size(); ++i) row_out[i] = row[pick[i]];

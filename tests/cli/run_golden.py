@@ -2,7 +2,8 @@
 """Runs one golden command-line case (Miller/zstd style).
 
 A case is a folder holding `cmd` (one bash command line), and optionally `stdin`, `expout`,
-`experr`, `status` (expected exit status, default 0) and `tolerance` (relative tolerance for
+`experr`, `status` (expected exit status, default 0; the paths of tests/data and of the source
+tree are written $DATA and $SRC in the expected files) and `tolerance` (relative tolerance for
 numbers, default 1e-9). The command runs with cwd = the case folder, the built tools first on
 PATH, and DATA / SRC naming tests/data and the source tree. Outputs are compared token by
 token: numbers within the tolerance, everything else exactly. Run with --update to write the
@@ -80,8 +81,11 @@ def main():
     stdin = open(os.path.join(case, "stdin"), "rb") if exists("stdin") else subprocess.DEVNULL
     proc = subprocess.run(["bash", "-c", read("cmd")], cwd=case, env=env, stdin=stdin,
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=900)
-    out = proc.stdout.decode("utf-8", "replace")
-    err = proc.stderr.decode("utf-8", "replace")
+    # Paths of this checkout are written as $DATA and $SRC, so expected files are portable.
+    def portable(text):
+        return text.replace(args.data, "$DATA").replace(args.source, "$SRC")
+    out = portable(proc.stdout.decode("utf-8", "replace"))
+    err = portable(proc.stderr.decode("utf-8", "replace"))
     status = int(read("status").strip()) if exists("status") else 0
     tol = float(read("tolerance").strip()) if exists("tolerance") else 1e-9
     if args.update:

@@ -134,6 +134,16 @@ void Progress::finish() {
   }
 }
 
+const CLI::Validator& whole_number() {
+  static const CLI::Validator check(
+      [](std::string& text) -> std::string {
+        bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+        return digits ? std::string() : "'" + text + "' is not a whole number >= 0";
+      },
+      "");
+  return check;
+}
+
 std::vector<std::string> split_list(const std::string& text, char separator) {
   std::vector<std::string> parts;
   if (text.empty()) return parts;

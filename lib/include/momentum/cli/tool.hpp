@@ -109,6 +109,9 @@ class Progress {
   double last_ = -1;
 };
 
+// A CLI11 check that accepts only a whole number >= 0 written in digits.
+const CLI::Validator& whole_number();
+
 // Splits "a,b,c" into parts; empty string gives no parts.
 std::vector<std::string> split_list(const std::string& text, char separator = ',');
 // Parses "1.5,2,3" into doubles; throws UsageError naming `option` on a bad number.
