@@ -1,0 +1,126 @@
+#pragma once
+// Collision events as mo-detect writes them, and the reader every other tool uses for them
+// (mo-eval, mo-plot, the nightly script through mo-detect's exit status). The format is text
+// CSV, documented in mo-detect(1) under EVENT FORMAT:
+//
+//   t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,...,peakn
+//   7.104,7.184,2,1;2,onset,1,,,8.31,9.12,0.52
+//   7.104,7.184,3,1;2;3,end,1,7.9,release,12.1,15.03,8.2
+//
+// Lines starting with '#' are comments (provenance). Each event has exactly one onset row,
+// written the moment it is detected, and one end row; rows of different events never
+// interleave (an event ends before the next one opens).
+
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace momentum::detect {
+
+enum class EventKind { onset, end };
+// Why an event ended: every joint back under release x threshold for the hold time; end of
+// input with the event still open; SIGINT/SIGTERM with the event still open.
+enum class EndReason { none, release, eof, signal };
+
+std::string_view kind_name(EventKind kind);
+std::string_view end_reason_name(EndReason reason);
+
+struct Event {
+  std::uint64_t id = 0;  // 1-based number of the event in its stream
+  EventKind kind = EventKind::onset;
+  // Estimated start of the contact, s: the first row of the run in which the earliest fired
+  // joint left its usual band before crossing its threshold. <= t_detect.
+  double t_onset_estimate = 0;
+  // Time of the row on which the event was declared (first joint fired), s.
+  double t_detect = 0;
+  // Isolated link: the most distal joint that fired (paper's signature eta = [1..1, 0..0]),
+  // 1..n. On an onset row: joints fired up to detection; on an end row: over the whole event.
+  int link = 0;
+  // Every joint that fired, ascending, 1-based. Written "1;2;3".
+  std::vector<int> joints;
+  // End rows only (NaN / none on onset rows): first row of the quiet run that closed the event
+  // (release), or the last row read (eof, signal), s.
+  double t_end = 0;
+  EndReason ended_by = EndReason::none;
+  // Per joint, the peak |signal| (Nm) since the joint left its band or since detection,
+  // whichever is earlier, up to this row. Size n (joints of the stream).
+  std::vector<double> peaks;
+};
+
+// Header line of an event file for `joints` joints (no trailing newline).
+std::string event_header(std::size_t joints);
+// One event as a CSV line (no trailing newline); NaN t_end on onset rows is written empty.
+std::string format_event(const Event& event);
+
+// Writes event rows to a file or stdout, flushing after every row so a consumer sees an event
+// the moment it is detected. Uses write(2); a closed reader (EPIPE) throws stream::BrokenPipe.
+class EventWriter {
+ public:
+  // Opens `path` ("-" or "": stdout) and writes `comments` (each as '#' + text) and the header
+  // for `joints` joints. Throws momentum::Error when the file cannot be created.
+  EventWriter(const std::string& path, std::size_t joints, const std::vector<std::string>& comments);
+  ~EventWriter();
+  EventWriter(const EventWriter&) = delete;
+  EventWriter& operator=(const EventWriter&) = delete;
+
+  // Writes and flushes one row. Throws momentum::Error on a write failure, stream::BrokenPipe
+  // when the reader went away.
+  void write(const Event& event);
+  std::uint64_t rows_written() const { return rows_; }
+
+ private:
+  void put(std::string_view text);
+  int fd_ = -1;
+  bool owns_ = false;
+  std::string name_;
+  std::size_t joints_ = 0;
+  std::uint64_t rows_ = 0;
+};
+
+// Reads an event file row by row. Columns are found by name, so files with extra columns (a
+// later version) still read; peak<j> columns give the joint count.
+class EventReader {
+ public:
+  // Opens `path` ("-": stdin) and reads its header. Throws momentum::Error `file:line: message`
+  // when the file cannot be opened, or the header lacks one of t_onset_estimate, t_detect,
+  // link, joints, kind, event.
+  static std::unique_ptr<EventReader> open(const std::string& path);
+  ~EventReader();
+
+  // The next row, or nullopt at end of file. A malformed row (wrong field count, bad number,
+  // unknown kind, joint out of 1..n) throws momentum::Error naming file and line: an event
+  // file is written by a program, so damage is not skipped silently.
+  std::optional<Event> next();
+
+  std::size_t joints() const { return joints_; }
+  const std::vector<std::string>& comments() const { return comments_; }
+  // `file:line` of the row last returned.
+  std::string where() const;
+
+ private:
+  EventReader() = default;
+  bool read_line(std::string& line);
+  std::FILE* file_ = nullptr;
+  bool owns_ = false;
+  std::string name_;
+  std::uint64_t line_ = 0;
+  std::size_t joints_ = 0;
+  std::size_t width_ = 0;
+  std::vector<std::string> comments_;
+  // Column index of each field (or npos when absent).
+  std::size_t c_onset_ = 0, c_detect_ = 0, c_link_ = 0, c_joints_ = 0, c_kind_ = 0, c_id_ = 0;
+  std::size_t c_end_ = 0, c_ended_by_ = 0;
+  std::vector<std::size_t> c_peaks_;
+};
+
+// Reads a whole event file and returns its end rows (one per event, with the final joints,
+// link and peaks); events without an end row (a file cut short) are returned from their onset
+// row with ended_by none and t_end NaN. Throws like EventReader. For plots and evaluation of
+// finished runs; streaming consumers use EventReader.
+std::vector<Event> read_events(const std::string& path);
+
+}  // namespace momentum::detect
