@@ -20,6 +20,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -35,6 +36,13 @@ template <class S>
 using MatrixX = Eigen::Matrix<S, Eigen::Dynamic, Eigen::Dynamic>;
 template <class S>
 using Matrix3X = Eigen::Matrix<S, 3, Eigen::Dynamic>;
+// Input vectors: any contiguous vector of S (a VectorX, a segment, a Map) binds without a copy.
+// The scalar is deduced from the Data argument only (std::type_identity), so expressions such
+// as VectorXd::Zero(n) are accepted too (evaluated into a temporary).
+template <class S>
+using InVector = const Eigen::Ref<const typename std::type_identity<VectorX<S>>::type>&;
+template <class S>
+using InVector3 = const typename std::type_identity<Eigen::Matrix<S, 3, 1>>::type&;
 
 // Scratch space for the dynamics of one Model. Holds the model's constants cast to S (so a Jet
 // computation casts nothing per call) and the per-body results of the last forward pass, which
@@ -82,57 +90,57 @@ using Data = DataTpl<double>;
 // Body poses in the world frame into data.rotation/position/axis/com_offset, and the tip frame
 // into data.tip_rotation_world/tip_position_world.
 template <class S>
-void forward_kinematics(const Model& model, DataTpl<S>& data, const VectorX<S>& q);
+void forward_kinematics(const Model& model, DataTpl<S>& data, InVector<S> q);
 
 // Joint-space mass matrix M(q) (nq x nq, symmetric), rotor inertia on the diagonal. CRBA.
 template <class S>
-void mass_matrix(const Model& model, DataTpl<S>& data, const VectorX<S>& q, MatrixX<S>& M);
+void mass_matrix(const Model& model, DataTpl<S>& data, InVector<S> q, MatrixX<S>& M);
 
 // Gravity torque g(q) = dV/dq (nq).
 template <class S>
-void gravity_torque(const Model& model, DataTpl<S>& data, const VectorX<S>& q, VectorX<S>& g);
+void gravity_torque(const Model& model, DataTpl<S>& data, InVector<S> q, VectorX<S>& g);
 
 // C(q,dq) dq (nq): the velocity-product torques (RNEA with ddq = 0 and no gravity).
 template <class S>
-void coriolis_times_velocity(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                             const VectorX<S>& dq, VectorX<S>& c);
+void coriolis_times_velocity(const Model& model, DataTpl<S>& data, InVector<S> q,
+                             InVector<S> dq, VectorX<S>& c);
 
 // C(q,dq)^T dq (nq) for the Christoffel-consistent C, i.e. dT/dq with T = dq^T M dq / 2.
 template <class S>
 void coriolis_transpose_times_velocity(const Model& model, DataTpl<S>& data,
-                                       const VectorX<S>& q, const VectorX<S>& dq,
+                                       InVector<S> q, InVector<S> dq,
                                        VectorX<S>& ct);
 
 // Generalized momentum p = M(q) dq and beta = g(q) - C(q,dq)^T dq, both nq, in one O(n)
 // forward + backward pass (the momentum observer's hot path).
 template <class S>
-void momentum_and_beta(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                       const VectorX<S>& dq, VectorX<S>& p, VectorX<S>& beta);
+void momentum_and_beta(const Model& model, DataTpl<S>& data, InVector<S> q,
+                       InVector<S> dq, VectorX<S>& p, VectorX<S>& beta);
 
 // tau = M(q) ddq + C(q,dq) dq + g(q) (nq), rotor inertia included. Recursive Newton-Euler.
 template <class S>
-void inverse_dynamics(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                      const VectorX<S>& dq, const VectorX<S>& ddq, VectorX<S>& tau);
+void inverse_dynamics(const Model& model, DataTpl<S>& data, InVector<S> q,
+                      InVector<S> dq, InVector<S> ddq, VectorX<S>& tau);
 
 // T = dq^T M(q) dq / 2, J (rotor inertia included).
 template <class S>
-S kinetic_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q, const VectorX<S>& dq);
+S kinetic_energy(const Model& model, DataTpl<S>& data, InVector<S> q, InVector<S> dq);
 
 // V = -sum_k m_k gravity . c_k, J (zero with every com at the root origin).
 template <class S>
-S potential_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q);
+S potential_energy(const Model& model, DataTpl<S>& data, InVector<S> q);
 
 // World-frame position of a point fixed in body `body` (0..nq-1), m. Runs forward_kinematics.
 template <class S>
-Eigen::Matrix<S, 3, 1> point_position(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                                      int body, const Eigen::Matrix<S, 3, 1>& point_in_body);
+Eigen::Matrix<S, 3, 1> point_position(const Model& model, DataTpl<S>& data, InVector<S> q,
+                                      int body, InVector3<S> point_in_body);
 
 // Jacobian (3 x nq) of the world linear velocity of a point fixed in body `body` (0..nq-1):
 // v = J dq; columns of joints after `body` are zero. Maps a contact force f on that point to
 // joint torques J^T f. Throws std::invalid_argument when body is out of range.
 template <class S>
-void point_jacobian(const Model& model, DataTpl<S>& data, const VectorX<S>& q, int body,
-                    const Eigen::Matrix<S, 3, 1>& point_in_body, Matrix3X<S>& J);
+void point_jacobian(const Model& model, DataTpl<S>& data, InVector<S> q, int body,
+                    InVector3<S> point_in_body, Matrix3X<S>& J);
 
 }  // namespace momentum::model
 

@@ -28,7 +28,7 @@ inline void check_size(const char* function, const char* what, Eigen::Index got,
 
 template <class S>
 void check_q(const char* function, const Model& model, const DataTpl<S>& data,
-             const VectorX<S>& q) {
+             InVector<S> q) {
   check_size(function, "q", q.size(), model.nq);
   if (data.rotation.size() != static_cast<std::size_t>(model.nq)) {
     throw std::invalid_argument(std::string(function) + ": data was made for another model");
@@ -37,7 +37,7 @@ void check_q(const char* function, const Model& model, const DataTpl<S>& data,
 
 // Forward velocity pass (after forward_kinematics): data.omega, data.velocity.
 template <class S>
-void forward_velocity(const Model& model, DataTpl<S>& data, const VectorX<S>& dq) {
+void forward_velocity(const Model& model, DataTpl<S>& data, InVector<S> dq) {
   using Vector3 = typename DataTpl<S>::Vector3;
   Vector3 omega_parent = Vector3::Zero();
   Vector3 velocity_parent = Vector3::Zero();
@@ -67,7 +67,7 @@ typename DataTpl<S>::Vector3 world_inertia_times(const DataTpl<S>& data, int i,
 
 // Recursive Newton-Euler; ddq may be null (= 0). Rotor inertia is the caller's business.
 template <class S>
-void rnea(const Model& model, DataTpl<S>& data, const VectorX<S>& dq, const VectorX<S>* ddq,
+void rnea(const Model& model, DataTpl<S>& data, InVector<S> dq, const Eigen::Ref<const VectorX<S>>* ddq,
           bool with_gravity, VectorX<S>& tau) {
   using Vector3 = typename DataTpl<S>::Vector3;
   const int n = model.nq;
@@ -157,7 +157,7 @@ DataTpl<S>::DataTpl(const Model& model) {
 }
 
 template <class S>
-void forward_kinematics(const Model& model, DataTpl<S>& data, const VectorX<S>& q) {
+void forward_kinematics(const Model& model, DataTpl<S>& data, InVector<S> q) {
   using std::cos;
   using std::sin;
   using Vector3 = typename DataTpl<S>::Vector3;
@@ -190,7 +190,7 @@ void forward_kinematics(const Model& model, DataTpl<S>& data, const VectorX<S>& 
 }
 
 template <class S>
-void mass_matrix(const Model& model, DataTpl<S>& data, const VectorX<S>& q, MatrixX<S>& M) {
+void mass_matrix(const Model& model, DataTpl<S>& data, InVector<S> q, MatrixX<S>& M) {
   using Vector3 = typename DataTpl<S>::Vector3;
   using Matrix3 = typename DataTpl<S>::Matrix3;
   forward_kinematics(model, data, q);
@@ -231,7 +231,7 @@ void mass_matrix(const Model& model, DataTpl<S>& data, const VectorX<S>& q, Matr
 }
 
 template <class S>
-void gravity_torque(const Model& model, DataTpl<S>& data, const VectorX<S>& q, VectorX<S>& g) {
+void gravity_torque(const Model& model, DataTpl<S>& data, InVector<S> q, VectorX<S>& g) {
   using Vector3 = typename DataTpl<S>::Vector3;
   forward_kinematics(model, data, q);
   const int n = model.nq;
@@ -251,8 +251,8 @@ void gravity_torque(const Model& model, DataTpl<S>& data, const VectorX<S>& q, V
 }
 
 template <class S>
-void coriolis_times_velocity(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                             const VectorX<S>& dq, VectorX<S>& c) {
+void coriolis_times_velocity(const Model& model, DataTpl<S>& data, InVector<S> q,
+                             InVector<S> dq, VectorX<S>& c) {
   detail::check_size("coriolis_times_velocity", "dq", dq.size(), model.nq);
   forward_kinematics(model, data, q);
   detail::rnea<S>(model, data, dq, nullptr, false, c);
@@ -263,8 +263,8 @@ namespace detail {
 // Shared backward pass of momentum_and_beta and coriolis_transpose_times_velocity. Writes p
 // (if non-null), C^T dq into ct (if non-null) and g - C^T dq into beta (if non-null).
 template <class S>
-void momentum_pass(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                   const VectorX<S>& dq, VectorX<S>* p, VectorX<S>* ct, VectorX<S>* beta) {
+void momentum_pass(const Model& model, DataTpl<S>& data, InVector<S> q,
+                   InVector<S> dq, VectorX<S>* p, VectorX<S>* ct, VectorX<S>* beta) {
   using Vector3 = typename DataTpl<S>::Vector3;
   check_size("momentum_and_beta", "dq", dq.size(), model.nq);
   forward_kinematics(model, data, q);
@@ -311,20 +311,20 @@ void momentum_pass(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
 
 template <class S>
 void coriolis_transpose_times_velocity(const Model& model, DataTpl<S>& data,
-                                       const VectorX<S>& q, const VectorX<S>& dq,
+                                       InVector<S> q, InVector<S> dq,
                                        VectorX<S>& ct) {
   detail::momentum_pass<S>(model, data, q, dq, nullptr, &ct, nullptr);
 }
 
 template <class S>
-void momentum_and_beta(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                       const VectorX<S>& dq, VectorX<S>& p, VectorX<S>& beta) {
+void momentum_and_beta(const Model& model, DataTpl<S>& data, InVector<S> q,
+                       InVector<S> dq, VectorX<S>& p, VectorX<S>& beta) {
   detail::momentum_pass<S>(model, data, q, dq, &p, nullptr, &beta);
 }
 
 template <class S>
-void inverse_dynamics(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                      const VectorX<S>& dq, const VectorX<S>& ddq, VectorX<S>& tau) {
+void inverse_dynamics(const Model& model, DataTpl<S>& data, InVector<S> q,
+                      InVector<S> dq, InVector<S> ddq, VectorX<S>& tau) {
   detail::check_size("inverse_dynamics", "dq", dq.size(), model.nq);
   detail::check_size("inverse_dynamics", "ddq", ddq.size(), model.nq);
   forward_kinematics(model, data, q);
@@ -333,7 +333,7 @@ void inverse_dynamics(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
 }
 
 template <class S>
-S kinetic_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q, const VectorX<S>& dq) {
+S kinetic_energy(const Model& model, DataTpl<S>& data, InVector<S> q, InVector<S> dq) {
   using Vector3 = typename DataTpl<S>::Vector3;
   detail::check_size("kinetic_energy", "dq", dq.size(), model.nq);
   forward_kinematics(model, data, q);
@@ -349,7 +349,7 @@ S kinetic_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q, cons
 }
 
 template <class S>
-S potential_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q) {
+S potential_energy(const Model& model, DataTpl<S>& data, InVector<S> q) {
   forward_kinematics(model, data, q);
   S v = S(0.0);
   for (int i = 0; i < model.nq; ++i) {
@@ -359,8 +359,8 @@ S potential_energy(const Model& model, DataTpl<S>& data, const VectorX<S>& q) {
 }
 
 template <class S>
-Eigen::Matrix<S, 3, 1> point_position(const Model& model, DataTpl<S>& data, const VectorX<S>& q,
-                                      int body, const Eigen::Matrix<S, 3, 1>& point_in_body) {
+Eigen::Matrix<S, 3, 1> point_position(const Model& model, DataTpl<S>& data, InVector<S> q,
+                                      int body, InVector3<S> point_in_body) {
   if (body < 0 || body >= model.nq) {
     throw std::invalid_argument("point_position: body " + std::to_string(body) +
                                 " out of range 0.." + std::to_string(model.nq - 1));
@@ -370,8 +370,8 @@ Eigen::Matrix<S, 3, 1> point_position(const Model& model, DataTpl<S>& data, cons
 }
 
 template <class S>
-void point_jacobian(const Model& model, DataTpl<S>& data, const VectorX<S>& q, int body,
-                    const Eigen::Matrix<S, 3, 1>& point_in_body, Matrix3X<S>& J) {
+void point_jacobian(const Model& model, DataTpl<S>& data, InVector<S> q, int body,
+                    InVector3<S> point_in_body, Matrix3X<S>& J) {
   using Vector3 = typename DataTpl<S>::Vector3;
   const Vector3 x = point_position(model, data, q, body, point_in_body);
   J.resize(3, model.nq);
