@@ -1,5 +1,5 @@
-// mo-cat: convert sample streams between CSV and binary, select columns, take the head, or
-// describe a log (--stats).
+// mo-cat: convert sample streams between CSV and binary, select, rename and scale columns,
+// mend timing faults, or describe a log (--stats).
 #include <cinttypes>
 #include <cstdio>
 #include <optional>
@@ -7,6 +7,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/stream/repair.hpp"
 #include "momentum/stream/stats.hpp"
 
 using namespace momentum;
@@ -41,60 +42,121 @@ void print_stats(const stream::StreamStats& stats, std::FILE* out) {
   std::fputs(any ? "\n" : " none\n", out);
 }
 
+// "--scale q1-6=0.0174532925199433": factor per output column (1 where none is given).
+std::vector<double> parse_scales(const std::vector<std::string>& specs, const std::vector<std::string>& columns) {
+  std::vector<double> factor(columns.size(), 1.0);
+  for (const auto& spec : specs) {
+    auto eq = spec.rfind('=');
+    if (eq == std::string::npos) throw cli::UsageError("--scale: expected LIST=FACTOR, got '" + spec + "'");
+    auto value = stream::parse_double(spec.substr(eq + 1));
+    if (!value) throw cli::UsageError("--scale: '" + spec.substr(eq + 1) + "' is not a number");
+    for (auto index : stream::column_indices(columns, stream::expand_column_list(spec.substr(0, eq)), "--scale"))
+      factor[index] *= *value;
+  }
+  return factor;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  cli::Tool tool("mo-cat", "Convert, select and describe sample streams.");
+  cli::Tool tool("mo-cat", "Convert, select, scale, mend and describe sample streams.");
   tool.add_inputs("input streams, concatenated (same columns); - or none: stdin");
   tool.add_stream_output();
-  std::string columns;
+  std::string columns, names;
+  std::vector<std::string> scales;
   std::optional<std::uint64_t> head;
-  bool stats = false;
-  tool.app().add_option("-c,--columns", columns, "columns to keep, in this order (t,q1-6,...)")->type_name("LIST");
-  tool.app().add_option("--head", head, "stop after N rows")->type_name("N")->check(cli::whole_number());
-  tool.app().add_flag("--stats", stats, "describe the stream on stdout instead of copying it");
+  bool stats = false, zero_time = false, repair = false;
+  auto& app = tool.app();
+  app.add_option("-c,--columns", columns, "columns to keep, in this order (t,q1-6,...)")->type_name("LIST");
+  app.add_option("--names", names, "the input has no header: name its columns (_ drops one)")->type_name("LIST");
+  app.add_option("--scale", scales, "multiply columns by a factor, e.g. q1-6=0.0174532925199433 (repeatable)")
+      ->type_name("LIST=FACTOR")
+      ->allow_extra_args(false);
+  app.add_flag("--zero-time", zero_time, "shift t so that the first row is at 0");
+  app.add_flag("--repair", repair, "drop exact duplicate rows and rows out of time order, and say which");
+  app.add_option("--head", head, "stop after N rows")->type_name("N")->check(cli::whole_number());
+  app.add_flag("--stats", stats, "describe the stream on stdout instead of copying it");
 
   return tool.run(argc, argv, [&] {
     std::vector<std::string> inputs = tool.inputs();
     if (inputs.empty()) inputs.push_back("-");
+    stream::ReaderOptions read_options;
+    if (!names.empty()) read_options.names = stream::expand_column_list(names);
+
     std::unique_ptr<stream::Writer> out;
     std::unique_ptr<stream::StreamStats> summary;
+    std::unique_ptr<stream::TimeOrderRepair> mender;
     std::vector<std::string> first_columns;
     std::vector<std::size_t> pick;
-    std::vector<double> row_out;
+    std::vector<double> factor, row_out;
+    std::optional<std::size_t> t_out;
+    std::optional<double> t_origin;
     std::uint64_t rows = 0, skipped = 0;
+    std::string where;  // location of the row being mended, for --stats after --repair
+    stream::Reader* current = nullptr;
+
+    auto deliver = [&](const double* row) {
+      if (summary) summary->add(row, mender ? where : current->where());
+      else out->row(row);
+    };
+
     for (const auto& path : inputs) {
-      auto in = tool.open_input(path);
+      auto in = tool.open_input(path, read_options);
+      current = in.get();
       if (first_columns.empty()) {
         first_columns = in->columns();
         std::vector<std::string> selected = columns.empty() ? in->columns() : stream::expand_column_list(columns);
         pick = stream::column_indices(in->columns(), selected, in->name());
+        factor = parse_scales(scales, selected);
         row_out.resize(pick.size());
+        for (std::size_t i = 0; i < selected.size(); ++i)
+          if (selected[i] == "t") t_out = i;
+        if ((zero_time || repair) && !t_out)
+          throw Error(in->name() + ": missing column 't' (needed by " + (repair ? "--repair" : "--zero-time") + ")");
         if (stats) {
           summary = std::make_unique<stream::StreamStats>(selected);
         } else {
           out = tool.open_output(*in);
           out->header(selected);
-          in->on_comment([&](std::string_view c) { out->comment(c); });
         }
-      } else {
-        if (in->columns() != first_columns)
-          throw Error(in->name() + ": columns differ from " + inputs.front() + "'s; cannot concatenate");
-        if (out) {
-          stream::Writer* raw = out.get();
-          in->on_comment([raw](std::string_view c) { raw->comment(c); });
-          if (raw->interactive()) in->before_read([raw] { raw->flush(); });
+        if (repair) {
+          mender = std::make_unique<stream::TimeOrderRepair>(
+              pick.size(), *t_out, deliver,
+              [](const std::string& at, const std::string& reason) { warn(at + ": dropped: " + reason); });
         }
+      } else if (in->columns() != first_columns) {
+        throw Error(in->name() + ": columns differ from " + inputs.front() + "'s; cannot concatenate");
+      }
+      if (out) {
+        stream::Writer* raw = out.get();
+        in->on_comment([raw](std::string_view c) { raw->comment(c); });
+        if (raw->interactive()) in->before_read([raw] { raw->flush(); });
       }
       while (!head || rows < *head) {
         const double* row = in->next();
         if (!row) break;
         for (std::size_t i = 0; i < pick.size(); ++i) row_out[i] = row[pick[i]];
-        if (summary) summary->add(row_out.data(), in->where());
-        else out->row(row_out.data());
+        if (zero_time) {  // before scaling, so that controller ticks subtract exactly
+          if (!t_origin) t_origin = row_out[*t_out];
+          row_out[*t_out] -= *t_origin;
+        }
+        for (std::size_t i = 0; i < pick.size(); ++i) row_out[i] *= factor[i];
+        if (mender) {
+          where = in->where();
+          mender->push(row_out.data(), where);
+        } else {
+          deliver(row_out.data());
+        }
         ++rows;
       }
       skipped += in->rows_skipped();
+    }
+    if (mender) {
+      mender->finish();
+      const auto& m = mender->summary();
+      if (m.duplicates + m.out_of_order)
+        warn("--repair kept " + std::to_string(m.kept) + " rows, dropped " + std::to_string(m.duplicates) +
+             " duplicate and " + std::to_string(m.out_of_order) + " out of time order");
     }
     if (out) out->close();
     if (summary) print_stats(*summary, stdout);

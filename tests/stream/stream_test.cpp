@@ -14,6 +14,7 @@
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
+#include "momentum/stream/repair.hpp"
 #include "momentum/stream/stats.hpp"
 #include "momentum/stream/writer.hpp"
 
@@ -301,4 +302,26 @@ TEST(Stats, CountsGapsBackwardsDuplicatesFrozenAndNaN) {
   EXPECT_EQ(s.duplicates.count, 1u);
   EXPECT_EQ(s.frozen.count, 1u);
   EXPECT_EQ(s.nan_per_column[1], 1u);
+}
+
+TEST(Repair, AnEarlyRowIsDroppedNotTheRowsItOvertook) {
+  std::vector<double> kept;
+  std::vector<std::string> dropped;
+  ms::TimeOrderRepair repair(
+      2, 0, [&](const double* row) { kept.push_back(row[0]); },
+      [&](const std::string& where, const std::string& reason) { dropped.push_back(where + " " + reason); },
+      {.window = 8});
+  double times[] = {1, 2, 3, 7, 4, 5, 6, 8, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20};
+  for (int i = 0; i < 21; ++i) {
+    double row[2] = {times[i], i == 8 ? 7.0 : 1.0};  // row 8 repeats t = 8 with other values
+    repair.push(row, "l" + std::to_string(i));
+    if (i == 8) repair.push(row, "dup");            // exact duplicate of the row before
+  }
+  repair.finish();
+  std::vector<double> expected = {1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20};
+  EXPECT_EQ(kept, expected);
+  // l3 is decided when the window first fills, before the duplicate arrives.
+  EXPECT_EQ(dropped, (std::vector<std::string>{"l3 out of time order", "dup duplicate row", "l8 out of time order"}));
+  EXPECT_EQ(repair.summary().duplicates, 1u);
+  EXPECT_EQ(repair.summary().out_of_order, 2u);
 }
