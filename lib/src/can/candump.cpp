@@ -452,7 +452,7 @@ LineKind parse_candump_line(std::string_view line, Frame& frame, ParsedLine& inf
   info.interface = iface;
   const char* after_iface = tokens.p;
   const std::string_view first = tokens.next();
-  if (first.empty()) return bad("missing frame");
+  if (first.empty()) return bad(integer_digits < 0 ? "not candump text" : "missing frame");
 
   if (first.find('#') != std::string_view::npos) {
     // Log format: "(stamp) iface ID#DATA" with an optional " R" or " T" (candump -x, python-can).

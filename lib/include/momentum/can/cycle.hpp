@@ -1,0 +1,123 @@
+#pragma once
+// From decoded frames to sample-stream rows: which signal feeds which column, where one
+// control cycle ends and the next begins, and what to write for a value that did not arrive.
+//
+// CANopen drives (CiA 402) answer a SYNC frame (0x080) with their TPDOs; a cycle is the SYNC
+// and the frames up to the next SYNC, and becomes one row timed at its SYNC. A value that did
+// not arrive in its cycle is stale: it is written as NaN and counted, unless --hold allows
+// reusing the last value for a bounded number of cycles.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "momentum/can/codec.hpp"
+#include "momentum/can/dbc.hpp"
+#include "momentum/can/frame.hpp"
+
+namespace momentum::can {
+
+// One output column and the signal that feeds it.
+struct ColumnSource {
+  std::string column;
+  const Message* message = nullptr;
+  int signal = -1;  // index in message->signals
+};
+
+// Parses a column map: one `column = Message.Signal` per line; blank lines and lines starting
+// with '#' are ignored. Throws momentum::Error (`name:line: message`) for a malformed line, an
+// unknown message or signal, a column named twice, or a column named "t".
+std::vector<ColumnSource> parse_column_map(std::string_view text, std::string_view name, const Database& db);
+// Reads and parses a column map file.
+std::vector<ColumnSource> read_column_map(const std::string& path, const Database& db);
+// Columns from signals already named like stream columns (q<j>, dq<j>, ddq<j>, i<j>,
+// tau_m<j>), ordered q1..qn, dq1..dqn, ddq, i, tau_m. Throws momentum::Error when two
+// messages carry a signal of the same such name.
+std::vector<ColumnSource> columns_from_signal_names(const Database& db);
+
+enum class CycleBoundary : std::uint8_t {
+  sync,     // a frame with the SYNC id starts a cycle (the SYNC itself carries no signal)
+  message,  // each arrival of a chosen DBC message starts a cycle (its signals belong to it)
+  period,   // fixed periods from the first frame's time
+};
+
+struct CycleOptions {
+  CycleBoundary boundary = CycleBoundary::sync;
+  // sync: the SYNC frame's key (Frame::key(); kExtendedFlag for a 29-bit id).
+  std::uint32_t sync_key = 0x080;
+  // message: the boundary message's key.
+  std::uint32_t message_key = 0;
+  // period: cycle length in seconds (> 0).
+  double period = 0;
+  // A value missing from a cycle repeats the last one for at most this many consecutive
+  // cycles; 0: never (written as NaN at once).
+  int hold = 0;
+
+  bool IsValid(std::string* why) const;
+};
+
+// Counters of an assembler; all start at zero.
+struct CycleStats {
+  std::uint64_t frames = 0;             // frames given to add()
+  std::uint64_t decoded = 0;            // frames of a DBC message
+  std::uint64_t unknown_ids = 0;        // frames whose id the DBC does not know
+  std::uint64_t sync_frames = 0;        // boundary frames (sync mode)
+  std::uint64_t error_frames = 0;       // error frames (ignored)
+  std::uint64_t remote_frames = 0;      // RTR frames (ignored)
+  std::uint64_t short_frames = 0;       // frames shorter than their message's signals need
+  std::uint64_t before_first_cycle = 0; // frames before the first boundary (dropped)
+  std::uint64_t complete_cycles = 0;    // rows where every column arrived in its cycle
+  std::uint64_t incomplete_cycles = 0;  // rows with a held or NaN value
+  std::uint64_t empty_periods = 0;      // period mode: periods without any frame (no row)
+  std::uint64_t missing_values = 0;     // values written as NaN
+  std::uint64_t held_values = 0;        // values reused by --hold
+  std::uint64_t repeated_values = 0;    // a column fed twice in one cycle (the last counts)
+};
+
+// Assembles rows `t, column...` from frames in capture order. Constant memory.
+class CycleAssembler {
+ public:
+  // Throws momentum::Error when options are invalid or a source does not belong to `db`.
+  CycleAssembler(const Database& db, std::vector<ColumnSource> sources, CycleOptions options);
+
+  // Output columns: "t" then the sources' columns.
+  const std::vector<std::string>& columns() const { return columns_; }
+  // Feeds one frame. Returns true when it closed a cycle: row() then holds that cycle's row
+  // (t in seconds; NaN when the capture has no timestamps). Throws momentum::Error in period
+  // mode for a frame without a timestamp.
+  bool add(const Frame& frame);
+  // End of input: returns true when the last open cycle received any value; row() holds it.
+  bool finish();
+  // The row last completed: columns().size() values, valid until the next add()/finish().
+  const double* row() const { return row_.data(); }
+  const CycleStats& stats() const { return stats_; }
+
+ private:
+  void open_cycle(double t);
+  bool close_cycle();
+  void take(const Frame& frame, const Message& message);
+
+  const Database* db_;
+  std::vector<ColumnSource> sources_;
+  CycleOptions options_;
+  std::vector<std::string> columns_;
+  // For each message (by index in db.messages()): offset into signal_column_, or -1.
+  std::vector<std::int32_t> message_map_;
+  std::vector<std::int32_t> signal_column_;  // column index per signal, or -1
+  std::vector<double> value_;                // latest value per column
+  std::vector<char> fresh_;                  // arrived in the open cycle
+  std::vector<int> age_;                     // cycles since the value last arrived
+  std::vector<char> ever_;                   // has a value at all
+  std::vector<double> row_;
+  std::vector<SignalValue> decoded_;
+  bool open_ = false;
+  bool any_value_ = false;
+  double cycle_t_ = 0;
+  bool have_t0_ = false;
+  std::int64_t t0_ns_ = 0;
+  std::int64_t period_index_ = 0;
+  CycleStats stats_;
+};
+
+}  // namespace momentum::can
