@@ -1,0 +1,151 @@
+// The generalized-momentum observer (design notes, "Physics and conventions").
+//
+//   dp/dt = u - tau_d,   u = tau_m - beta(q, dq),   p = M(q) dq,   r = H(s) tau_d
+//
+// with H(s) the first- or second-order transfer function of filter.hpp. r has the sign of
+// tau_d: friction on a joint moving forward gives a positive r. With a friction model, the
+// model torque tau_f (from the measured velocity) is subtracted from u as a known torque, so
+// the compensated residual mu = H(s) (tau_d - tau_f) = r - F(tau_f) sees the same filter as r.
+//
+// Two layers:
+//  - ResidualObserver: model-free, per joint, fed p and u (and dq for friction) per sample;
+//  - MomentumObserver: adds the rigid-body model (p and beta from q, dq) and the handling of
+//    time: each sample's own dt, restart after a gap or a sample with NaN/inf, and rejection
+//    of samples whose time does not increase.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "momentum/friction/friction.hpp"
+#include "momentum/model/dynamics.hpp"
+#include "momentum/model/model.hpp"
+#include "momentum/observer/filter.hpp"
+
+namespace momentum::observer {
+
+// Observer settings, from the profile's "observer" section and the command line.
+struct ObserverOptions {
+  int order = 1;  // 1 or 2
+  // Gains in 1/s, one value for every joint or one per joint. Order 1 ignores k2 and k3.
+  std::vector<double> k1{50.0};
+  std::vector<double> k2{0.0};
+  std::vector<double> k3{0.0};
+  // A sample more than gap_factor times the running median dt after the previous one restarts
+  // the observer. > 1.
+  double gap_factor = 5.0;
+
+  // False (with the reason in `why`, when non-null) for an order other than 1 or 2, empty
+  // lists, invalid gains (see Gains::is_valid) or gap_factor <= 1.
+  bool is_valid(std::string* why) const;
+
+  // The gains of each of `joints` joints. Throws momentum::Error ("observer: k1 has 3 values
+  // for 6 joints") when a list has neither one value nor one per joint.
+  std::vector<Gains> joint_gains(int joints) const;
+};
+
+// Reads the profile's "observer" section:
+//   {"order": 2, "k1": 50 or [..per joint..], "k2": 5, "k3": 0, "cutoff_hz": 8, "gap_factor": 5}
+// "cutoff_hz" (number or list) sets k1 = 2 pi cutoff_hz; giving both k1 and cutoff_hz is an
+// error. Missing keys keep ObserverOptions' defaults. Throws momentum::Error ("observer: ...";
+// the caller adds the file name) for wrong types or invalid values. Unknown keys are listed in
+// `warnings` (when non-null).
+ObserverOptions observer_options_from_json(const nlohmann::json& section,
+                                           std::vector<std::string>* warnings = nullptr);
+
+// The model-free observer for n joints: per sample, the momentum p and u = tau_m - beta.
+class ResidualObserver {
+ public:
+  // `gains`: one per joint, each valid. `friction`: nullptr, or a model with gains.size()
+  // joints (otherwise std::invalid_argument).
+  ResidualObserver(std::vector<Gains> gains, const friction::FrictionModel* friction);
+
+  int joints() const { return static_cast<int>(gains_.size()); }
+  bool has_friction() const { return !friction_.empty(); }
+
+  // Forgets the state; the next sample starts the observer again (r = 0 there).
+  void reset() { started_ = false; }
+
+  // One sample, dt seconds (> 0) after the previous one (ignored on the first sample after
+  // construction or reset()). p: momentum (Nms), u: tau_m - beta (Nm), dq: velocity (rad/s,
+  // read only with friction); all of joints() values. Writes r (Nm) and, with friction,
+  // tau_f and mu (Nm); tau_f and mu may be nullptr without friction.
+  void step(double dt, const double* p, const double* u, const double* dq, double* r,
+            double* tau_f, double* mu);
+
+ private:
+  struct Joint {
+    FilterState<double> residual;
+    FilterState<double> compensated;
+    double p = 0, u = 0, tau_f = 0;  // previous sample
+  };
+  std::vector<Gains> gains_;
+  std::vector<bool> same_gains_as_previous_;  // joints sharing coefficients with joint j-1
+  std::vector<friction::JointFriction<double>> friction_;
+  std::vector<Joint> state_;
+  bool started_ = false;
+};
+
+// What MomentumObserver::step did with a sample.
+enum class SampleStatus {
+  started,             // first good sample of the stream: r = 0
+  ok,                  // the observer advanced
+  restarted_after_gap, // dt > gap_factor x median dt: started again here, r = 0
+  restarted_after_bad, // first good sample after samples with NaN/inf: started again, r = 0
+  invalid,             // NaN or inf among t, q, dq, tau_m: outputs NaN, restart at the next
+  time_not_increasing, // t <= previous t: nothing computed or written; state unchanged
+};
+
+// The observer on a robot model, with time handling. Constant memory.
+class MomentumObserver {
+ public:
+  // `model` must outlive the observer. `friction`: nullptr or a model with model.nq joints.
+  // Throws momentum::Error when the options are invalid or the gain lists do not fit nq,
+  // std::invalid_argument for a friction model of the wrong size.
+  MomentumObserver(const model::Model& model, const ObserverOptions& options,
+                   const friction::FrictionModel* friction);
+
+  int joints() const { return model_.nq; }
+  bool has_friction() const { return residual_.has_friction(); }
+
+  // One sample at time t (s) with q, dq, tau_m (each nq values; rad, rad/s, Nm). Writes r and,
+  // with friction, tau_f and mu (nq each; NaN for an invalid sample; untouched when the time
+  // does not increase).
+  SampleStatus step(double t, const double* q, const double* dq, const double* tau_m, double* r,
+                    double* tau_f, double* mu);
+
+  // Running median of the recent sample intervals (the last 16), s; 0 before two samples.
+  double median_dt() const { return median_dt_; }
+  // The interval that caused the last restart_after_gap, s.
+  double last_gap() const { return last_gap_; }
+  // Time of the last good sample, s.
+  double last_time() const { return t_previous_; }
+  // Number of invalid samples before the last restarted_after_bad (for the restart message).
+  std::uint64_t last_bad_run() const { return last_bad_run_; }
+
+ private:
+  void record_interval(double dt, bool gap);
+  const model::Model& model_;
+  model::Data data_;
+  double gap_factor_;
+  ResidualObserver residual_;
+  Eigen::VectorXd q_, dq_, p_, beta_, u_;
+  bool have_time_ = false;  // a good sample has been seen (t_previous_ valid)
+  bool restart_pending_ = false;
+  std::uint64_t bad_run_ = 0;
+  std::uint64_t last_bad_run_ = 0;
+  double t_previous_ = 0;
+  double median_dt_ = 0;
+  double last_gap_ = 0;
+  static constexpr int kWindow = 16;
+  double window_[kWindow] = {};
+  int window_count_ = 0;
+  int window_next_ = 0;
+  int since_median_ = 0;
+};
+
+}  // namespace momentum::observer

@@ -1,0 +1,259 @@
+#include "momentum/observer/observer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <set>
+#include <stdexcept>
+
+#include "momentum/stream/error.hpp"
+
+namespace momentum::observer {
+namespace {
+
+bool fail(std::string* why, std::string message) {
+  if (why) *why = std::move(message);
+  return false;
+}
+
+[[noreturn]] void error(const std::string& message) { throw Error("observer: " + message); }
+
+std::vector<double> number_or_list(const nlohmann::json& value, const char* key) {
+  std::vector<double> out;
+  auto take = [&](const nlohmann::json& x) {
+    if (!x.is_number() || !std::isfinite(x.get<double>()))
+      error(std::string("'") + key + "' must be a finite number or a list of them");
+    out.push_back(x.get<double>());
+  };
+  if (value.is_array()) {
+    if (value.empty()) error(std::string("'") + key + "' is an empty list");
+    for (const auto& x : value) take(x);
+  } else {
+    take(value);
+  }
+  return out;
+}
+
+}  // namespace
+
+bool ObserverOptions::is_valid(std::string* why) const {
+  if (order != 1 && order != 2) return fail(why, "order must be 1 or 2, not " + std::to_string(order));
+  if (k1.empty() || k2.empty() || k3.empty()) return fail(why, "a gain list is empty");
+  if (!std::isfinite(gap_factor) || !(gap_factor > 1))
+    return fail(why, "gap_factor must be a finite number > 1");
+  const std::size_t n = std::max({k1.size(), k2.size(), k3.size()});
+  for (std::size_t j = 0; j < n; ++j) {
+    Gains g{k1[std::min(j, k1.size() - 1)], order == 2 ? k2[std::min(j, k2.size() - 1)] : 0.0,
+            order == 2 ? k3[std::min(j, k3.size() - 1)] : 0.0};
+    std::string reason;
+    if (!g.is_valid(&reason)) {
+      return fail(why, (n > 1 ? "joint " + std::to_string(j + 1) + ": " : std::string()) + reason);
+    }
+  }
+  return true;
+}
+
+std::vector<Gains> ObserverOptions::joint_gains(int joints) const {
+  auto pick = [&](const std::vector<double>& list, const char* name, int j) {
+    if (list.size() != 1 && list.size() != static_cast<std::size_t>(joints))
+      error(std::string(name) + " has " + std::to_string(list.size()) + " values for " +
+            std::to_string(joints) + " joints");
+    return list.size() == 1 ? list[0] : list[static_cast<std::size_t>(j)];
+  };
+  std::vector<Gains> gains;
+  for (int j = 0; j < joints; ++j) {
+    Gains g;
+    g.k1 = pick(k1, "k1", j);
+    g.k2 = order == 2 ? pick(k2, "k2", j) : 0.0;
+    g.k3 = order == 2 ? pick(k3, "k3", j) : 0.0;
+    gains.push_back(g);
+  }
+  return gains;
+}
+
+ObserverOptions observer_options_from_json(const nlohmann::json& section,
+                                           std::vector<std::string>* warnings) {
+  if (!section.is_object()) error("the section is not an object");
+  static const std::set<std::string> known = {"order", "k1", "k2", "k3", "cutoff_hz", "gap_factor"};
+  for (const auto& item : section.items())
+    if (!known.count(item.key()) && warnings) warnings->push_back("observer: unknown key '" + item.key() + "'");
+  ObserverOptions options;
+  if (const auto it = section.find("order"); it != section.end()) {
+    if (!it->is_number_integer() || (it->get<int>() != 1 && it->get<int>() != 2))
+      error("'order' must be 1 or 2");
+    options.order = it->get<int>();
+  }
+  const auto k1 = section.find("k1");
+  const auto cutoff = section.find("cutoff_hz");
+  if (k1 != section.end() && cutoff != section.end()) error("give either 'k1' or 'cutoff_hz', not both");
+  if (k1 != section.end()) options.k1 = number_or_list(*k1, "k1");
+  if (cutoff != section.end()) {
+    options.k1 = number_or_list(*cutoff, "cutoff_hz");
+    for (double& k : options.k1) k *= 2 * std::numbers::pi;
+  }
+  if (const auto it = section.find("k2"); it != section.end()) options.k2 = number_or_list(*it, "k2");
+  if (const auto it = section.find("k3"); it != section.end()) options.k3 = number_or_list(*it, "k3");
+  if (const auto it = section.find("gap_factor"); it != section.end()) {
+    if (!it->is_number()) error("'gap_factor' must be a number");
+    options.gap_factor = it->get<double>();
+  }
+  std::string why;
+  if (!options.is_valid(&why)) error(why);
+  return options;
+}
+
+ResidualObserver::ResidualObserver(std::vector<Gains> gains, const friction::FrictionModel* friction)
+    : gains_(std::move(gains)), state_(gains_.size()) {
+  for (std::size_t j = 0; j < gains_.size(); ++j) {
+    same_gains_as_previous_.push_back(j > 0 && gains_[j].k1 == gains_[j - 1].k1 &&
+                                      gains_[j].k2 == gains_[j - 1].k2 &&
+                                      gains_[j].k3 == gains_[j - 1].k3);
+  }
+  if (friction) {
+    if (friction->joints.size() != gains_.size())
+      throw std::invalid_argument("ResidualObserver: friction model has " +
+                                  std::to_string(friction->joints.size()) + " joints, expected " +
+                                  std::to_string(gains_.size()));
+    friction_ = friction::make_joint_frictions(*friction);
+  }
+}
+
+void ResidualObserver::step(double dt, const double* p, const double* u, const double* dq,
+                            double* r, double* tau_f, double* mu) {
+  const std::size_t n = gains_.size();
+  const bool with_friction = !friction_.empty();
+  if (!started_) {
+    started_ = true;
+    for (std::size_t j = 0; j < n; ++j) {
+      Joint& s = state_[j];
+      s.residual.reset();
+      s.compensated.reset();
+      s.p = p[j];
+      s.u = u[j];
+      r[j] = 0.0;
+      if (with_friction) {
+        friction_[j].reset();
+        s.tau_f = friction_[j].step(dq[j], 0.0);
+        tau_f[j] = s.tau_f;
+        mu[j] = 0.0;
+      }
+    }
+    return;
+  }
+  const double inv_dt = 1.0 / dt;
+  FilterCoefficients c;
+  for (std::size_t j = 0; j < n; ++j) {
+    if (!same_gains_as_previous_[j]) c = discretize(gains_[j], dt);
+    Joint& s = state_[j];
+    // tau_d = u - dp/dt over the interval, with u linear and p linear between the samples.
+    const double dp = (p[j] - s.p) * inv_dt;
+    const double x_start = s.u - dp;
+    const double x_end = u[j] - dp;
+    s.residual.advance(c, x_start, x_end);
+    r[j] = s.residual.output(c);
+    if (with_friction) {
+      const double f = friction_[j].step(dq[j], dt);
+      s.compensated.advance(c, x_start - s.tau_f, x_end - f);
+      mu[j] = s.compensated.output(c);
+      tau_f[j] = f;
+      s.tau_f = f;
+    }
+    s.p = p[j];
+    s.u = u[j];
+  }
+}
+
+namespace {
+std::vector<Gains> checked_gains(const ObserverOptions& options, int joints) {
+  std::string why;
+  if (!options.is_valid(&why)) error(why);
+  return options.joint_gains(joints);
+}
+}  // namespace
+
+MomentumObserver::MomentumObserver(const model::Model& model, const ObserverOptions& options,
+                                   const friction::FrictionModel* friction)
+    : model_(model),
+      data_(model),
+      gap_factor_(options.gap_factor),
+      residual_(checked_gains(options, model.nq), friction),
+      q_(model.nq),
+      dq_(model.nq),
+      p_(model.nq),
+      beta_(model.nq),
+      u_(model.nq) {}
+
+void MomentumObserver::record_interval(double dt, bool gap) {
+  window_[window_next_] = dt;
+  window_next_ = (window_next_ + 1) % kWindow;
+  if (window_count_ < kWindow) ++window_count_;
+  // The median moves slowly; recomputing it every 8 intervals keeps the hot path cheap. After
+  // a gap it is recomputed at once, so that a change of sample rate stops counting as gaps as
+  // soon as half the window holds the new rate.
+  if (gap || window_count_ < kWindow || ++since_median_ >= 8) {
+    since_median_ = 0;
+    double sorted[kWindow];
+    std::copy(window_, window_ + window_count_, sorted);
+    const int mid = window_count_ / 2;
+    std::nth_element(sorted, sorted + mid, sorted + window_count_);
+    double median = sorted[mid];
+    if (window_count_ % 2 == 0) median = 0.5 * (median + *std::max_element(sorted, sorted + mid));
+    median_dt_ = median;
+  }
+}
+
+SampleStatus MomentumObserver::step(double t, const double* q, const double* dq,
+                                    const double* tau_m, double* r, double* tau_f, double* mu) {
+  const int n = model_.nq;
+  if (have_time_ && std::isfinite(t) && !(t > t_previous_)) return SampleStatus::time_not_increasing;
+  bool finite = std::isfinite(t);
+  for (int j = 0; j < n; ++j) finite = finite && std::isfinite(q[j]) && std::isfinite(dq[j]) && std::isfinite(tau_m[j]);
+  if (!finite) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::fill(r, r + n, nan);
+    if (has_friction()) {
+      std::fill(tau_f, tau_f + n, nan);
+      std::fill(mu, mu + n, nan);
+    }
+    ++bad_run_;
+    restart_pending_ = true;
+    residual_.reset();
+    return SampleStatus::invalid;
+  }
+  SampleStatus status = SampleStatus::ok;
+  double dt = 0;
+  if (!have_time_) {
+    status = SampleStatus::started;
+    have_time_ = true;
+  } else {
+    dt = t - t_previous_;
+    if (restart_pending_) {
+      status = SampleStatus::restarted_after_bad;
+    } else {
+      const bool gap = median_dt_ > 0 && dt > gap_factor_ * median_dt_;
+      if (gap) {
+        status = SampleStatus::restarted_after_gap;
+        last_gap_ = dt;
+      }
+      record_interval(dt, gap);
+    }
+  }
+  if (restart_pending_) {
+    last_bad_run_ = bad_run_;
+    bad_run_ = 0;
+    restart_pending_ = false;
+  }
+  t_previous_ = t;
+  if (status != SampleStatus::ok) residual_.reset();
+  for (int j = 0; j < n; ++j) {
+    q_[j] = q[j];
+    dq_[j] = dq[j];
+  }
+  model::momentum_and_beta(model_, data_, q_, dq_, p_, beta_);
+  for (int j = 0; j < n; ++j) u_[j] = tau_m[j] - beta_[j];
+  residual_.step(dt, p_.data(), u_.data(), dq, r, tau_f, mu);
+  return status;
+}
+
+}  // namespace momentum::observer
