@@ -11,6 +11,7 @@
 #include <limits>
 #include <mutex>
 #include <numeric>
+#include <sstream>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -120,7 +121,11 @@ struct Builder {
     if (!std::isfinite(inertial.mass) || !inertia.allFinite()) {
       fail("link " + name + ": mass and inertia must be finite");
     }
-    if (inertial.mass < 0.0) fail("link " + name + ": negative mass " + std::to_string(inertial.mass));
+    if (inertial.mass < 0.0) {
+      std::ostringstream text;
+      text << "link " << name << ": negative mass " << inertial.mass;
+      fail(text.str());
+    }
     if (inertial.mass == 0.0) {
       // A massless frame (tool0, ee_link, ...) is fine; inertia without mass is not physical.
       if (!inertia.isZero(0.0)) fail("link " + name + ": zero mass with a nonzero inertia");
