@@ -1,0 +1,57 @@
+// The fitter's input: per joint, the observed residual r and the measured velocity dq of
+// collision-free motion, with the places where the observer (re)started and the samples that
+// count in the cost. Unlike every other stage, the fitter holds its data in memory.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "momentum/stream/reader.hpp"
+
+namespace momentum::fit {
+
+// One joint's samples, in time order.
+struct JointSeries {
+  int joint = 0;                       // 1-based joint number
+  std::vector<double> t;               // s, strictly increasing
+  std::vector<double> dq;              // measured velocity, rad/s
+  std::vector<double> r;               // observer residual, Nm
+  // 1 where the observer started or restarted (first sample, after a gap, after invalid
+  // rows, or where the stream's `restart` column says so): the model's filter starts at rest
+  // there, as the observer's does. The friction state carries on across a gap.
+  std::vector<std::uint8_t> restart;
+  std::vector<std::uint8_t> scored;    // 1 where the sample counts in the cost and the metrics
+  std::string source;                  // the input's name, for messages
+
+  std::size_t size() const { return t.size(); }
+  std::size_t scored_count() const;
+  // Median sample interval, s (0 with fewer than two samples).
+  double median_dt() const;
+};
+
+// Which samples a fit uses.
+struct SelectOptions {
+  std::vector<int> joints;          // 1-based joint numbers; empty: every joint with dq<j> and r<j>
+  double skip = 0;                  // seconds after the first row that do not count, >= 0
+  std::optional<double> window_begin;  // stream time (s) of the first counted sample
+  std::optional<double> window_end;    // stream time (s) of the last sample read
+  // A step longer than gap_factor times the median step restarts the observer (as
+  // observer::ObserverOptions::gap_factor does), so the model's filter restarts there too. > 1.
+  double gap_factor = 5.0;
+
+  // False (reason in `why`) for a negative skip, an empty or reversed window, joints < 1, or
+  // gap_factor <= 1.
+  bool is_valid(std::string* why) const;
+};
+
+// Reads the whole stream: columns t, dq<j>, r<j> (and `restart` when present). Rows whose time
+// does not increase are rejected through Reader::reject_row (skipped, or an error with
+// --strict); a row with NaN/inf in t is skipped for every joint, in dq<j> or r<j> for that joint
+// only, and the joint's next good row is a restart. Rows after window_end are not kept.
+// Throws momentum::Error (`file: message`) when a column is missing, no joint has both dq<j>
+// and r<j>, a requested joint is absent, or a joint has no sample left to count.
+std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& options);
+
+}  // namespace momentum::fit

@@ -1,0 +1,109 @@
+#include "momentum/fit/data.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "momentum/stream/columns.hpp"
+#include "momentum/stream/error.hpp"
+
+namespace momentum::fit {
+
+std::size_t JointSeries::scored_count() const {
+  return static_cast<std::size_t>(std::count(scored.begin(), scored.end(), std::uint8_t{1}));
+}
+
+double JointSeries::median_dt() const {
+  if (t.size() < 2) return 0;
+  std::vector<double> dt(t.size() - 1);
+  for (std::size_t k = 1; k < t.size(); ++k) dt[k - 1] = t[k] - t[k - 1];
+  auto mid = dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2);
+  std::nth_element(dt.begin(), mid, dt.end());
+  return *mid;
+}
+
+bool SelectOptions::is_valid(std::string* why) const {
+  auto fail = [&](const std::string& text) {
+    if (why) *why = text;
+    return false;
+  };
+  if (!(skip >= 0) || !std::isfinite(skip)) return fail("skip must be a finite number of seconds >= 0");
+  if (window_begin && !std::isfinite(*window_begin)) return fail("window start is not finite");
+  if (window_end && !std::isfinite(*window_end)) return fail("window end is not finite");
+  if (window_begin && window_end && !(*window_begin < *window_end))
+    return fail("window start must be before its end");
+  for (int j : joints)
+    if (j < 1) return fail("joint numbers start at 1");
+  if (!(gap_factor > 1)) return fail("gap factor must be > 1");
+  return true;
+}
+
+std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& options) {
+  std::string why;
+  if (!options.is_valid(&why)) throw Error(in.name() + ": " + why);
+  const std::size_t t_col = in.require("t");
+  std::vector<int> joints = options.joints;
+  if (joints.empty()) {
+    const std::size_t n = std::min(stream::count_joint_columns(in.columns(), "dq"),
+                                   stream::count_joint_columns(in.columns(), "r"));
+    if (n == 0) throw Error(in.name() + ": no joint has both dq<j> and r<j> columns (run mo-observe first)");
+    for (std::size_t j = 1; j <= n; ++j) joints.push_back(static_cast<int>(j));
+  }
+  std::vector<JointSeries> series(joints.size());
+  std::vector<std::size_t> dq_col(joints.size()), r_col(joints.size());
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const std::string j = std::to_string(joints[i]);
+    dq_col[i] = in.require("dq" + j);
+    r_col[i] = in.require("r" + j);
+    series[i].joint = joints[i];
+    series[i].source = in.name();
+  }
+  const auto restart_col = in.find("restart");
+
+  std::vector<std::uint8_t> pending(joints.size(), 1);  // next good row restarts the joint
+  bool have_time = false;
+  double t_first = 0, t_last = 0;
+  while (const double* row = in.next()) {
+    const double t = row[t_col];
+    if (!std::isfinite(t)) {
+      in.reject_row("time is not a finite number");
+      continue;
+    }
+    if (have_time && !(t > t_last)) {
+      in.reject_row("time does not increase");
+      continue;
+    }
+    if (!have_time) t_first = t;
+    have_time = true;
+    t_last = t;
+    if (options.window_end && t > *options.window_end) continue;
+    const bool restart_row = restart_col && row[*restart_col] != 0;
+    const bool counts = t >= t_first + options.skip &&
+                        (!options.window_begin || t >= *options.window_begin);
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      const double dq = row[dq_col[i]], r = row[r_col[i]];
+      if (!std::isfinite(dq) || !std::isfinite(r)) {
+        pending[i] = 1;
+        continue;
+      }
+      auto& s = series[i];
+      s.t.push_back(t);
+      s.dq.push_back(dq);
+      s.r.push_back(r);
+      s.restart.push_back(pending[i] || restart_row ? 1 : 0);
+      s.scored.push_back(counts ? 1 : 0);
+      pending[i] = 0;
+    }
+  }
+  for (auto& s : series) {
+    // Gaps restart the observer; mark them so the model's filter restarts too.
+    const double limit = options.gap_factor * s.median_dt();
+    for (std::size_t k = 1; k < s.size(); ++k)
+      if (s.t[k] - s.t[k - 1] > limit) s.restart[k] = 1;
+    if (s.scored_count() == 0)
+      throw Error(in.name() + ": joint " + std::to_string(s.joint) +
+                  ": no sample left to fit (check --skip and --window against the stream's time)");
+  }
+  return series;
+}
+
+}  // namespace momentum::fit

@@ -1,0 +1,658 @@
+#include "momentum/fit/friction_fit.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/covariance.h>
+#include <ceres/dynamic_autodiff_cost_function.h>
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include "momentum/stream/error.hpp"
+
+namespace momentum::fit {
+
+using friction::Kind;
+using Params = friction::Parameters<double>;
+
+ParameterBounds paper_bounds() {
+  ParameterBounds b;
+  b.lower = {6e4, 0.0, 0.0, 1e-5, 1e-5, 1e-7};
+  b.upper = {1e5, 500.0, 10.0, 10.0, 10.0, 0.1};
+  return b;
+}
+
+int parameter_index(const std::string& name) {
+  for (int i = 0; i < kParameterCount; ++i)
+    if (name == friction::kParameterNames[i]) return i;
+  return -1;
+}
+
+std::vector<int> model_parameters(Kind kind) {
+  switch (kind) {
+    case Kind::lugre: return {0, 1, 2, 3, 4, 5};
+    case Kind::stribeck: return {2, 3, 4, 5};
+    case Kind::coulomb_viscous: return {2, 3};
+  }
+  return {};
+}
+
+bool PolishOptions::is_valid(std::string* why) const {
+  auto fail = [&](const char* text) {
+    if (why) *why = text;
+    return false;
+  };
+  if (max_iterations < 1) return fail("polish: max iterations must be >= 1");
+  if (!(function_tolerance > 0)) return fail("polish: function tolerance must be > 0");
+  if (!(parameter_tolerance > 0)) return fail("polish: parameter tolerance must be > 0");
+  return true;
+}
+
+namespace {
+
+// Smallest value a parameter may take for a model: > 0 (strictly) or >= 0.
+bool must_be_positive(Kind kind, int i) {
+  if (i == 0) return kind == Kind::lugre;
+  if (i == 3) return kind != Kind::coulomb_viscous;
+  return i == 4 || i == 5;  // tau_s, w_s (used only by LuGre and Stribeck)
+}
+
+std::vector<int> free_parameters(const FitOptions& o, Kind kind) {
+  std::vector<int> free;
+  for (int i : model_parameters(kind))
+    if (!o.fixed[static_cast<std::size_t>(i)]) free.push_back(i);
+  return free;
+}
+
+}  // namespace
+
+bool FitOptions::is_valid(std::string* why) const {
+  auto fail = [&](const std::string& text) {
+    if (why) *why = text;
+    return false;
+  };
+  if (!friction.is_valid(why)) return false;
+  if (!global.is_valid(why)) return false;
+  if (!polish.is_valid(why)) return false;
+  if (!(identifiability_threshold > 0)) return fail("identifiability threshold must be > 0");
+  std::vector<Kind> kinds{kind};
+  if (kind == Kind::lugre && compare_static) kinds.push_back(Kind::stribeck);
+  for (Kind k : kinds) {
+    for (int i : model_parameters(k)) {
+      const auto u = static_cast<std::size_t>(i);
+      const std::string name = friction::kParameterNames[i];
+      if (fixed[u]) {
+        const double v = *fixed[u];
+        if (!std::isfinite(v) || v < 0 || (must_be_positive(k, i) && v == 0))
+          return fail(name + " = " + std::to_string(v) + " is not a valid fixed value");
+        continue;
+      }
+      const double lo = bounds.lower[u], hi = bounds.upper[u];
+      if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi))
+        return fail(name + ": bounds must be finite with lower < upper");
+      if (lo < 0 || (must_be_positive(k, i) && lo <= 0))
+        return fail(name + ": lower bound must be " + (must_be_positive(k, i) ? "> 0" : ">= 0"));
+    }
+    if (free_parameters(*this, k).empty()) return fail("every parameter is fixed: nothing to fit");
+  }
+  return true;
+}
+
+namespace {
+
+// One model on one joint's data, with everything per sample precomputed: the interval and
+// the observer filter's coefficients (identical consecutive intervals share them).
+struct Problem {
+  const JointSeries* data = nullptr;
+  Kind kind = Kind::lugre;
+  friction::Options friction;
+  std::vector<double> dt;                                 // dt[0] = 0
+  std::vector<observer::FilterCoefficients> coefficients; // distinct ones
+  std::vector<std::uint32_t> coefficient_of;              // per sample
+  std::vector<int> free;
+  std::array<double, kParameterCount> fixed{};            // values of the parameters not free
+  std::array<double, kParameterCount> scale{};            // Ceres works on x / scale
+  std::size_t scored = 0;
+
+  Problem(const JointSeries& series, const observer::Gains& gains, Kind k,
+          const FitOptions& options)
+      : data(&series), kind(k), friction(options.friction) {
+    const std::size_t n = series.size();
+    dt.assign(n, 0.0);
+    coefficient_of.assign(n, 0);
+    for (std::size_t i = 1; i < n; ++i) {
+      dt[i] = series.t[i] - series.t[i - 1];
+      if (coefficients.empty() || dt[i] != dt[i - 1]) coefficients.push_back(observer::discretize(gains, dt[i]));
+      coefficient_of[i] = static_cast<std::uint32_t>(coefficients.size() - 1);
+    }
+    if (coefficients.empty()) coefficients.emplace_back();
+    free = free_parameters(options, k);
+    // Unused parameters get harmless values (the model never reads them).
+    fixed = {0.0, 0.0, 0.0, 0.0, 0.0, 1.0};
+    for (int i = 0; i < kParameterCount; ++i) {
+      const auto u = static_cast<std::size_t>(i);
+      if (options.fixed[u]) fixed[u] = *options.fixed[u];
+      scale[u] = std::max(std::abs(options.bounds.upper[u]), std::abs(options.bounds.lower[u]));
+      if (!(scale[u] > 0)) scale[u] = 1;
+    }
+    scored = series.scored_count();
+  }
+
+  // Parameters from the free values x: physical units when `scales` is null, otherwise
+  // x[j] * scales[free[j]].
+  template <class T>
+  friction::Parameters<T> assemble(const T* x, const double* scales) const {
+    T all[kParameterCount];
+    for (int i = 0; i < kParameterCount; ++i) all[i] = T(fixed[static_cast<std::size_t>(i)]);
+    for (std::size_t j = 0; j < free.size(); ++j) {
+      const auto i = static_cast<std::size_t>(free[j]);
+      all[i] = scales ? x[j] * scales[i] : x[j];
+    }
+    return friction::Parameters<T>::from_array(all);
+  }
+
+  // Runs the model over every sample: sink(k, r_model, tau_f). The observer's filter is
+  // advanced with its own state type and coefficients (exactly DisturbanceFilter::step, with
+  // the coefficients computed once instead of per call), restarted at rest where the
+  // observer restarted.
+  template <class T, class Sink>
+  void simulate(const friction::Parameters<T>& p, Sink&& sink) const {
+    friction::JointFriction<T> model(kind, p, friction);
+    observer::FilterState<T> filter;
+    T previous = T(0);
+    const auto& d = *data;
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      const T tau = model.step(T(d.dq[k]), dt[k]);
+      if (d.restart[k]) {
+        filter.reset();
+        previous = tau;
+        sink(k, T(0), tau);
+        continue;
+      }
+      const auto& c = coefficients[coefficient_of[k]];
+      filter.advance(c, previous, tau);
+      previous = tau;
+      sink(k, filter.output(c), tau);
+    }
+  }
+
+  // 1/2 sum of squared errors over the counted samples, for parameters in physical units.
+  double cost(const Params& p) const {
+    double sum = 0;
+    const auto& d = *data;
+    simulate(p, [&](std::size_t k, double y, double) {
+      if (d.scored[k]) {
+        const double e = d.r[k] - y;
+        sum += e * e;
+      }
+    });
+    return 0.5 * sum;
+  }
+};
+
+// Ceres residuals r - r_model over the counted samples; parameter i is x * scale[i].
+struct Residuals {
+  const Problem* problem;
+  std::array<double, kParameterCount> scale;
+  template <class T>
+  bool operator()(T const* const* x, T* residuals) const {
+    const auto p = problem->assemble<T>(x[0], scale.data());
+    const auto& d = *problem->data;
+    std::size_t m = 0;
+    problem->simulate(p, [&](std::size_t k, const T& y, const T&) {
+      if (d.scored[k]) residuals[m++] = T(d.r[k]) - y;
+    });
+    return true;
+  }
+};
+
+FitMetrics metrics_of(const Problem& problem, const Params& p) {
+  const auto& d = *problem.data;
+  double sum_r = 0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < d.size(); ++k)
+    if (d.scored[k]) sum_r += d.r[k], ++n;
+  const double mean = n ? sum_r / static_cast<double>(n) : 0.0;
+  FitMetrics m;
+  double sse = 0, sst = 0;
+  problem.simulate(p, [&](std::size_t k, double y, double) {
+    if (!d.scored[k]) return;
+    const double e = d.r[k] - y;
+    sse += e * e;
+    sst += (d.r[k] - mean) * (d.r[k] - mean);
+    m.max_abs = std::max(m.max_abs, std::abs(e));
+  });
+  m.samples = n;
+  m.cost = 0.5 * sse;
+  m.rms = n ? std::sqrt(sse / static_cast<double>(n)) : 0.0;
+  m.r_squared = sst > 0 ? 1.0 - sse / sst : (sse == 0 ? 1.0 : 0.0);
+  return m;
+}
+
+// Variance inflation of a least-squares estimate from autocorrelated residuals: 1 + 2 sum of
+// the autocorrelations, summed as Geyer's initial positive sequence (pairs of lags while their
+// sum stays positive). 1 for white residuals; about the correlation length otherwise.
+double autocorrelation_factor(const std::vector<double>& e) {
+  const std::size_t n = e.size();
+  if (n < 8) return 1.0;
+  double mean = 0;
+  for (double v : e) mean += v;
+  mean /= static_cast<double>(n);
+  double c0 = 0;
+  for (double v : e) c0 += (v - mean) * (v - mean);
+  if (!(c0 > 0)) return 1.0;
+  auto rho = [&](std::size_t lag) {
+    double c = 0;
+    for (std::size_t k = lag; k < n; ++k) c += (e[k] - mean) * (e[k - lag] - mean);
+    return c / c0;
+  };
+  double sum = 0;
+  const std::size_t max_lag = n / 4;
+  for (std::size_t lag = 1; lag + 1 <= max_lag; lag += 2) {
+    const double pair = rho(lag) + rho(lag + 1);
+    if (!(pair > 0)) break;
+    sum += pair;
+  }
+  return std::max(1.0, 1.0 + 2.0 * sum);
+}
+
+std::string format(const char* fmt, double a) {
+  char buffer[96];
+  std::snprintf(buffer, sizeof buffer, fmt, a);
+  return buffer;
+}
+
+// Why a flagged parameter is not identifiable, in terms of the data.
+std::string explain(const Problem& problem, const ModelFit& fit, int i) {
+  const auto& d = *problem.data;
+  const Params& p = fit.parameters;
+  const double rate = 1.0 / std::max(d.median_dt(), 1e-12);
+  std::string why;
+  if (i == 0 || i == 1) {
+    // The bristle state only leaves its steady state for ~ g / (sigma0 |w|) seconds: samples
+    // where that is not small against the sample interval carry sigma0 and sigma1.
+    std::size_t transient = 0;
+    for (std::size_t k = 1; k < d.size(); ++k) {
+      if (!d.scored[k]) continue;
+      const double g = friction::stribeck_level(p, d.dq[k]);
+      if (p.sigma0 * std::abs(d.dq[k]) * problem.dt[k] / g < 3.0) ++transient;
+    }
+    why = "bristle dynamics settle within " +
+          format("%.2g", friction::stribeck_level(p, 0.0) / p.sigma0) +
+          " rad of travel; only " + std::to_string(transient) + " of " +
+          std::to_string(fit.metrics.samples) + " samples at " + format("%.4g", rate) +
+          " Hz see them (near velocity reversals)";
+  } else if (i == 5) {
+    std::size_t slow = 0;
+    for (std::size_t k = 0; k < d.size(); ++k)
+      if (d.scored[k] && std::abs(d.dq[k]) < 2.0 * p.w_s) ++slow;
+    why = "only " + std::to_string(slow) + " samples move slower than 2 w_s";
+  }
+  // The strongest partner, if any.
+  double strongest = 0;
+  int partner = -1;
+  for (std::size_t a = 0; a < fit.free.size(); ++a) {
+    if (fit.free[a] != i) continue;
+    for (std::size_t b = 0; b < fit.free.size(); ++b) {
+      if (a == b) continue;
+      const double c = fit.correlation(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+      if (std::isfinite(c) && std::abs(c) > std::abs(strongest)) strongest = c, partner = fit.free[b];
+    }
+  }
+  if (partner >= 0 && std::abs(strongest) >= 0.95) {
+    if (!why.empty()) why += "; ";
+    why += std::string("correlated with ") + friction::kParameterNames[partner] + " (" +
+           format("%.3f", strongest) + ")";
+  }
+  return why;
+}
+
+ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind kind,
+                   const FitOptions& options, std::uint64_t seed, int joint,
+                   const JointProgressCallback& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  Problem problem(data, gains, kind, options);
+  const std::size_t nfree = problem.free.size();
+  ModelFit fit;
+  fit.kind = kind;
+  fit.free = problem.free;
+
+  // Global search in physical units over the free parameters' box.
+  Bounds box;
+  for (int i : problem.free) {
+    box.lower.push_back(options.bounds.lower[static_cast<std::size_t>(i)]);
+    box.upper.push_back(options.bounds.upper[static_cast<std::size_t>(i)]);
+  }
+  GlobalOptions global = options.global;
+  global.genetic.seed = seed;
+  if (progress) {
+    const char* stage = friction::kind_name(kind);
+    global.genetic.on_generation = [&progress, joint, stage](const SearchProgress& s) {
+      progress({joint, stage, s});
+    };
+  }
+  fit.global = minimize_global(
+      [&](std::span<const double> x) { return problem.cost(problem.assemble(x.data(), nullptr)); },
+      box, global);
+  if (!std::isfinite(fit.global.cost))
+    throw Error("joint " + std::to_string(joint) + ": " + friction::kind_name(kind) +
+                " model: the cost is not finite anywhere in the bounds");
+  fit.parameters = problem.assemble(fit.global.best.data(), nullptr);
+  fit.global_metrics = metrics_of(problem, fit.parameters);
+  fit.evaluations = fit.global.evaluations;
+
+  // Polish, then covariance, in scaled parameters x / scale (so that the trust region and the
+  // rank decisions see comparable columns).
+  std::vector<double> x(nfree);
+  for (std::size_t j = 0; j < nfree; ++j)
+    x[j] = fit.global.best[j] / problem.scale[static_cast<std::size_t>(problem.free[j])];
+  ceres::Problem::Options problem_options;
+  ceres::Problem ceres_problem(problem_options);
+  auto* cost = new ceres::DynamicAutoDiffCostFunction<Residuals, kParameterCount>(new Residuals{&problem, problem.scale});
+  cost->AddParameterBlock(static_cast<int>(nfree));
+  cost->SetNumResiduals(static_cast<int>(problem.scored));
+  ceres_problem.AddResidualBlock(cost, nullptr, x.data());
+  for (std::size_t j = 0; j < nfree; ++j) {
+    const auto i = static_cast<std::size_t>(problem.free[j]);
+    ceres_problem.SetParameterLowerBound(x.data(), static_cast<int>(j), options.bounds.lower[i] / problem.scale[i]);
+    ceres_problem.SetParameterUpperBound(x.data(), static_cast<int>(j), options.bounds.upper[i] / problem.scale[i]);
+  }
+  if (options.polish.enabled) {
+    if (progress) progress({joint, "polish", {0, 0, fit.global.cost, fit.evaluations}});
+    ceres::Solver::Options so;
+    so.minimizer_type = ceres::TRUST_REGION;
+    so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = options.polish.max_iterations;
+    so.function_tolerance = options.polish.function_tolerance;
+    so.parameter_tolerance = options.polish.parameter_tolerance;
+    so.gradient_tolerance = 1e-16;
+    so.logging_type = ceres::SILENT;
+    so.minimizer_progress_to_stdout = false;
+    so.num_threads = 1;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &ceres_problem, &summary);
+    fit.polish_iterations = static_cast<int>(summary.iterations.size()) - 1;
+    fit.polish_residual_evaluations = static_cast<std::uint64_t>(summary.num_residual_evaluations);
+    fit.polish_jacobian_evaluations = static_cast<std::uint64_t>(summary.num_jacobian_evaluations);
+    fit.polish_message = summary.message;
+    fit.evaluations += fit.polish_residual_evaluations + fit.polish_jacobian_evaluations;
+    std::vector<double> polished(nfree);
+    for (std::size_t j = 0; j < nfree; ++j)
+      polished[j] = x[j] * problem.scale[static_cast<std::size_t>(problem.free[j])];
+    const Params candidate = problem.assemble(polished.data(), nullptr);
+    if (summary.IsSolutionUsable() && problem.cost(candidate) <= fit.global.cost) {
+      fit.parameters = candidate;
+    } else {
+      fit.polish_message += " (kept the global search's result)";
+      for (std::size_t j = 0; j < nfree; ++j)
+        x[j] = fit.global.best[j] / problem.scale[static_cast<std::size_t>(problem.free[j])];
+    }
+  }
+  fit.metrics = metrics_of(problem, fit.parameters);
+
+  // Standard errors: sigma^2 (J^T J)^-1 with sigma^2 = SSE / (m - p), inflated by the
+  // residuals' autocorrelation (filtered noise is far from white).
+  std::vector<double> residuals;
+  {
+    const auto& d = *problem.data;
+    problem.simulate(fit.parameters, [&](std::size_t k, double y, double) {
+      if (d.scored[k]) residuals.push_back(d.r[k] - y);
+    });
+  }
+  fit.autocorrelation_factor = autocorrelation_factor(residuals);
+  const double dof = static_cast<double>(problem.scored) - static_cast<double>(nfree);
+  const double variance = dof > 0 ? 2.0 * fit.metrics.cost / dof : std::numeric_limits<double>::quiet_NaN();
+
+  // The Jacobian with unit columns: its condition number, and its null directions (singular
+  // values below 1e-7 of the largest, i.e. eigenvalues of J^T J below Ceres' default 1e-14).
+  Eigen::MatrixXd jacobian;
+  {
+    ceres::Problem::EvaluateOptions eo;
+    ceres::CRSMatrix crs;
+    double c = 0;
+    if (ceres_problem.Evaluate(eo, &c, nullptr, nullptr, &crs)) {
+      jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+      for (int row = 0; row < crs.num_rows; ++row)
+        for (int e = crs.rows[static_cast<std::size_t>(row)]; e < crs.rows[static_cast<std::size_t>(row) + 1]; ++e)
+          jacobian(row, crs.cols[static_cast<std::size_t>(e)]) = crs.values[static_cast<std::size_t>(e)];
+    }
+  }
+  // held[j]: free parameter j is in a null direction and is held fixed for the covariance of
+  // the others; undetermined[j]: the reason it is not determined by the data at all.
+  std::vector<bool> held(nfree, false);
+  std::vector<std::string> undetermined(nfree);
+  std::vector<double> column_norm(nfree, 0.0);
+  if (jacobian.rows() > 0 && jacobian.allFinite()) {
+    Eigen::MatrixXd unit = jacobian;
+    for (Eigen::Index c = 0; c < unit.cols(); ++c) {
+      const double norm = unit.col(c).norm();
+      column_norm[static_cast<std::size_t>(c)] = norm;
+      if (norm > 0) unit.col(c) /= norm;
+    }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(unit, Eigen::ComputeThinV);
+    const auto& s = svd.singularValues();
+    const Eigen::Index last = s.size() - 1;
+    fit.condition_number = s(last) > 0 ? s(0) / s(last) : std::numeric_limits<double>::infinity();
+    for (Eigen::Index k = last; k >= 0 && !(s(k) > 1e-7 * s(0)); --k) {
+      const Eigen::VectorXd v = svd.matrixV().col(k);
+      Eigen::Index pick = -1;
+      for (Eigen::Index j = 0; j < v.size(); ++j)
+        if (!held[static_cast<std::size_t>(j)] && (pick < 0 || std::abs(v(j)) > std::abs(v(pick)))) pick = j;
+      if (pick >= 0) held[static_cast<std::size_t>(pick)] = true;
+      std::string members;
+      for (Eigen::Index j = 0; j < v.size(); ++j)
+        if (std::abs(v(j)) >= 0.2) members += std::string(members.empty() ? "" : ", ") + friction::kParameterNames[problem.free[static_cast<std::size_t>(j)]];
+      for (Eigen::Index j = 0; j < v.size(); ++j)
+        if (std::abs(v(j)) >= 0.2 && undetermined[static_cast<std::size_t>(j)].empty())
+          undetermined[static_cast<std::size_t>(j)] =
+              members.find(',') == std::string::npos
+                  ? "not identifiable: the data do not depend on it"
+                  : "not identifiable: the data do not separate " + members + " (rank-deficient Jacobian)";
+    }
+  } else {
+    fit.covariance_note = "the Jacobian could not be evaluated";
+  }
+
+  fit.correlation = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(nfree), static_cast<Eigen::Index>(nfree),
+                                              std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> standard_error(nfree, std::numeric_limits<double>::quiet_NaN());
+  std::vector<int> constant;
+  for (std::size_t j = 0; j < nfree; ++j)
+    if (held[j]) constant.push_back(static_cast<int>(j));
+  if (!std::isfinite(variance)) {
+    fit.covariance_note = "too few samples for a covariance";
+  } else if (fit.covariance_note.empty() && constant.size() < nfree) {
+    // The covariance problem: parameters y_j = x_j |J_j|, so that every Jacobian column has
+    // unit norm and Ceres' rank test is scale-free (raw columns differ by many decades, e.g.
+    // sigma0 against tau_c, which would make a well-determined problem look singular).
+    std::array<double, kParameterCount> unit_scale = problem.scale;
+    std::vector<double> y(nfree);
+    for (std::size_t j = 0; j < nfree; ++j) {
+      const auto i = static_cast<std::size_t>(problem.free[j]);
+      const double n = column_norm[j] > 0 ? column_norm[j] : 1.0;
+      unit_scale[i] = problem.scale[i] / n;
+      y[j] = x[j] * n;
+    }
+    auto* unit_cost = new ceres::DynamicAutoDiffCostFunction<Residuals, kParameterCount>(
+        new Residuals{&problem, unit_scale});
+    unit_cost->AddParameterBlock(static_cast<int>(nfree));
+    unit_cost->SetNumResiduals(static_cast<int>(problem.scored));
+    ceres::Problem covariance_problem;
+    covariance_problem.AddResidualBlock(unit_cost, nullptr, y.data());
+    if (!constant.empty())
+      covariance_problem.SetManifold(y.data(), new ceres::SubsetManifold(static_cast<int>(nfree), constant));
+    ceres::Covariance::Options co;
+    co.algorithm_type = ceres::DENSE_SVD;
+    co.null_space_rank = 0;
+    co.min_reciprocal_condition_number = 1e-14;
+    co.num_threads = 1;
+    ceres::Covariance covariance(co);
+    std::vector<std::pair<const double*, const double*>> blocks{{y.data(), y.data()}};
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nfree, nfree);
+    if (covariance.Compute(blocks, &covariance_problem) &&
+        covariance.GetCovarianceBlock(y.data(), y.data(), c.data())) {
+      const double factor = variance * fit.autocorrelation_factor;
+      for (std::size_t a = 0; a < nfree; ++a) {
+        if (held[a]) continue;
+        const double sa = unit_scale[static_cast<std::size_t>(problem.free[a])];
+        const auto ia = static_cast<Eigen::Index>(a);
+        standard_error[a] = std::sqrt(std::max(0.0, c(ia, ia) * factor)) * sa;
+        for (std::size_t b = 0; b < nfree; ++b) {
+          if (held[b]) continue;
+          const auto ib = static_cast<Eigen::Index>(b);
+          const double denom = std::sqrt(c(ia, ia) * c(ib, ib));
+          fit.correlation(ia, ib) = denom > 0 ? c(ia, ib) / denom : std::numeric_limits<double>::quiet_NaN();
+        }
+      }
+      fit.covariance_ok = true;
+      if (!constant.empty())
+        fit.covariance_note = "rank-deficient: covariance of the other parameters with the undetermined ones held";
+      else if (!(fit.condition_number < 1e6))
+        fit.covariance_note = "ill-conditioned (condition number " + format("%.3g", fit.condition_number) +
+                              "): standard errors are first-order estimates at best";
+    } else {
+      fit.covariance_note = "ceres could not compute the covariance";
+    }
+  } else if (fit.covariance_note.empty()) {
+    fit.covariance_note = "no parameter is determined by the data";
+  }
+
+  // Per-parameter report and flags.
+  for (int i = 0; i < kParameterCount; ++i) {
+    auto& e = fit.estimates[static_cast<std::size_t>(i)];
+    double all[kParameterCount];
+    fit.parameters.to_array(all);
+    e.value = all[i];
+    const auto used = model_parameters(kind);
+    e.used = std::find(used.begin(), used.end(), i) != used.end();
+  }
+  for (std::size_t j = 0; j < nfree; ++j) {
+    const int i = problem.free[j];
+    const auto u = static_cast<std::size_t>(i);
+    auto& e = fit.estimates[u];
+    e.free = true;
+    e.standard_error = standard_error[j];
+    const double lo = options.bounds.lower[u], hi = options.bounds.upper[u];
+    const double near = 1e-6 * (hi - lo);
+    if (e.value <= lo + near) e.at_bound = -1;
+    if (e.value >= hi - near) e.at_bound = +1;
+    const double reference = std::min(std::abs(e.value), hi - lo);
+    std::string note;
+    if (!undetermined[j].empty()) {
+      e.identifiable = false;
+      note = undetermined[j];
+      const std::string why = explain(problem, fit, i);
+      if (!why.empty()) note += "; " + why;
+    } else if (!fit.covariance_ok) {
+      e.identifiable = false;
+      note = "no standard error: " + fit.covariance_note;
+    } else if (!(e.standard_error <= options.identifiability_threshold * reference)) {
+      e.identifiable = false;
+      note = "not identifiable: standard error " +
+             (reference > 0 ? format("%.3g%%", 100.0 * e.standard_error / reference) : std::string("large")) +
+             " of " + (reference == std::abs(e.value) ? "the value" : "the bound interval");
+      const std::string why = explain(problem, fit, i);
+      if (!why.empty()) note += "; " + why;
+    }
+    if (e.at_bound) {
+      const std::string where = e.at_bound < 0 ? "lower" : "upper";
+      const std::string bound_note = "at its " + where + " bound " +
+                                     format("%.6g", e.at_bound < 0 ? lo : hi) +
+                                     " (the data pull beyond it; widen --bounds to check)";
+      note = note.empty() ? bound_note : bound_note + "; " + note;
+    }
+    e.note = note;
+  }
+  fit.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return fit;
+}
+
+}  // namespace
+
+std::vector<double> predict_residual(const JointSeries& data, const observer::Gains& gains,
+                                     Kind kind, const Params& p, const friction::Options& options,
+                                     std::vector<double>* friction_torque) {
+  FitOptions o;
+  o.kind = kind;
+  o.friction = options;
+  Problem problem(data, gains, kind, o);
+  std::vector<double> out(data.size());
+  if (friction_torque) friction_torque->assign(data.size(), 0.0);
+  problem.simulate(p, [&](std::size_t k, double y, double tau) {
+    out[k] = y;
+    if (friction_torque) (*friction_torque)[k] = tau;
+  });
+  return out;
+}
+
+FitMetrics evaluate_fit(const JointSeries& data, const observer::Gains& gains, Kind kind,
+                        const Params& p, const friction::Options& options) {
+  FitOptions o;
+  o.kind = kind;
+  o.friction = options;
+  Problem problem(data, gains, kind, o);
+  return metrics_of(problem, p);
+}
+
+JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const FitOptions& options,
+                   std::uint64_t seed, const JointProgressCallback& progress) {
+  std::string why;
+  if (!options.is_valid(&why)) throw std::invalid_argument("friction fit: " + why);
+  if (!gains.is_valid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
+  if (data.scored_count() == 0)
+    throw Error("joint " + std::to_string(data.joint) + ": no sample to fit");
+  const auto start = std::chrono::steady_clock::now();
+  JointFit result;
+  result.joint = data.joint;
+  result.model = fit_model(data, gains, options.kind, options, derive_seed(seed, 0), data.joint, progress);
+  if (options.kind == Kind::lugre && options.compare_static)
+    result.static_model =
+        fit_model(data, gains, Kind::stribeck, options, derive_seed(seed, 1), data.joint, progress);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
+                                 const std::vector<observer::Gains>& gains,
+                                 const FitOptions& options, int threads,
+                                 const JointProgressCallback& progress) {
+  if (gains.size() != data.size())
+    throw std::invalid_argument("friction fit: one set of gains per joint needed");
+  std::string why;
+  if (!options.is_valid(&why)) throw std::invalid_argument("friction fit: " + why);
+  std::vector<JointFit> results(data.size());
+  std::vector<std::exception_ptr> errors(data.size());
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t i = next++; i < data.size(); i = next++) {
+      try {
+        results[i] = fit_joint(data[i], gains[i], options,
+                               derive_seed(options.global.genetic.seed,
+                                           static_cast<std::uint64_t>(data[i].joint)),
+                               progress);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const auto count = std::min<std::size_t>(static_cast<std::size_t>(threads), data.size());
+  std::vector<std::thread> pool;
+  for (std::size_t i = 1; i < count; ++i) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  return results;
+}
+
+}  // namespace momentum::fit
