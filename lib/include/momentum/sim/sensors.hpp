@@ -1,0 +1,73 @@
+// What the robot's drives report: encoder positions with a finite resolution, a velocity
+// (measured with noise, or the encoder difference), and the motor current i = tau_m / k_i with
+// noise; the sampling instants may jitter and samples may be lost on the way.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "momentum/sim/random.hpp"
+
+namespace momentum::sim {
+
+enum class VelocitySource {
+  measured,    // true velocity plus white noise (a velocity sensor or a fine motor encoder)
+  difference,  // backward difference of the quantised positions over the actual sample interval
+};
+
+// "measured", "difference".
+const char* velocity_source_name(VelocitySource source);
+bool parse_velocity_source(const std::string& name, VelocitySource* source);
+
+struct SensorOptions {
+  // Encoder resolution in bits per revolution (revolute: 2 pi / 2^bits rad; prismatic:
+  // 1 / 2^bits m). 0 turns quantisation off. 0..52. Default: the paper's 19-bit absolute encoder.
+  int encoder_bits = 19;
+  // Standard deviation of the white noise on the current, A (>= 0).
+  double current_noise = 0.005;
+  VelocitySource velocity = VelocitySource::measured;
+  // Standard deviation of the velocity noise (measured velocity), rad/s (>= 0).
+  double velocity_noise = 0.002;
+  // Standard deviation of the sampling-instant jitter, s (>= 0); each instant is clipped to
+  // within 0.45 sample periods of its nominal time so that samples stay in order.
+  double time_jitter = 0.0;
+  // Probability that a sample is lost (never written), 0 <= p < 1.
+  double drop_rate = 0.0;
+
+  bool IsValid(std::string* why) const;
+};
+
+class Sensors {
+ public:
+  // `k_i` (nq): torque constants, Nm/A, nonzero; `revolute` (nq) selects the encoder unit.
+  // Throws momentum::Error for invalid options or a zero torque constant.
+  Sensors(const SensorOptions& options, const Eigen::VectorXd& k_i,
+          const Eigen::Array<bool, Eigen::Dynamic, 1>& revolute, std::uint64_t seed);
+
+  // Measures the true state at sample time t (s, increasing from call to call): writes the
+  // reported q, dq (rad, rad/s) and current i (A). Every sample must be measured, including
+  // those that will be dropped, so that velocity differences span the right interval.
+  void measure(double t, const Eigen::VectorXd& q_true, const Eigen::VectorXd& dq_true,
+               const Eigen::VectorXd& tau_m, Eigen::VectorXd& q, Eigen::VectorXd& dq,
+               Eigen::VectorXd& i);
+
+  // Jitter of the next sampling instant, s (clipped to +-0.45 period), drawn in sample order.
+  double next_jitter(double period);
+  // Whether the next sample is lost.
+  bool next_dropped();
+
+  const SensorOptions& options() const { return options_; }
+
+ private:
+  SensorOptions options_;
+  Eigen::VectorXd k_i_;
+  Eigen::VectorXd resolution_;  // per joint, 0 = exact
+  Random noise_, timing_;
+  Eigen::VectorXd previous_q_;
+  double previous_t_ = 0;
+  bool started_ = false;
+};
+
+}  // namespace momentum::sim

@@ -1,0 +1,162 @@
+// mo-sim: simulate a profile's arm following a trajectory, with its true friction and a campaign
+// of collisions; write what its drives would report, and the ground truth.
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "momentum/cli/tool.hpp"
+#include "momentum/model/model.hpp"
+#include "momentum/model/profile.hpp"
+#include "momentum/sim/run.hpp"
+#include "momentum/stream/error.hpp"
+
+using namespace momentum;
+
+namespace {
+
+void range_option(CLI::App& app, const std::string& name, std::string& text, const std::string& help) {
+  app.add_option(name, text, help)->type_name("MIN:MAX")->capture_default_str();
+}
+
+void parse_range_or_throw(const std::string& option, const std::string& text, double* lo, double* hi) {
+  if (!sim::parse_range(text, lo, hi))
+    throw cli::UsageError(option + ": '" + text + "' is not a range MIN:MAX of numbers with MIN <= MAX");
+}
+
+std::string format_number(double x) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", x);
+  return buffer;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::Tool tool("mo-sim", "Simulate an arm with friction and collisions: a sample stream and its ground truth.");
+  tool.add_profile();
+  tool.add_seed();
+  CLI::App& app = tool.app();
+
+  sim::RunOptions run;
+  std::string output = "-", output_format = "csv", truth_path;
+  bool line_buffered = false, with_truth = false, no_friction = false;
+  app.add_option("-o,--output", output, "output file (default: stdout)")->type_name("FILE");
+  app.add_option("--output-format", output_format, "csv or bin")->check(CLI::IsMember({"csv", "bin"}))->capture_default_str();
+  app.add_flag("--line-buffered", line_buffered, "flush every row");
+  app.add_option("--truth", truth_path, "write one row per contact (ground truth) to FILE")->type_name("FILE");
+  app.add_flag("--with-truth-columns", with_truth, "add true friction and contact torques per joint");
+
+  std::string trajectory = "paper", integrator = "rk4", velocity = "measured", direction = "normal";
+  std::optional<double> duration;
+  app.add_option("--trajectory", trajectory, "paper, multisine, ptp or hold")
+      ->check(CLI::IsMember({"paper", "multisine", "ptp", "hold"}))->capture_default_str();
+  app.add_option("--duration", duration, "length in seconds (default: 60, longer for many collisions)")->type_name("S");
+  app.add_option("--rate", run.rate_hz, "output sample rate (125 for the paper)")->type_name("HZ")->capture_default_str();
+  app.add_option("--amplitude", run.trajectory.amplitude, "paper/multisine amplitude")->type_name("RAD")->capture_default_str();
+  app.add_option("--frequency", run.trajectory.frequency, "paper sine frequency")->type_name("HZ")->capture_default_str();
+  app.add_option("--blend", run.trajectory.blend, "quintic entry and exit blends")->type_name("S")->capture_default_str();
+  app.add_option("--internal-rate", run.internal_rate_hz, "integration rate")->type_name("HZ")->capture_default_str();
+  app.add_option("--integrator", integrator, "rk4 or semi-implicit")
+      ->check(CLI::IsMember({"rk4", "semi-implicit"}))->capture_default_str();
+  app.add_option("--control-rate", run.controller.rate_hz, "controller update rate")->type_name("HZ")->capture_default_str();
+  app.add_option("--bandwidth", run.controller.bandwidth_hz, "controller closed-loop bandwidth")->type_name("HZ")->capture_default_str();
+  app.add_flag("--no-friction", no_friction, "ignore the profile's simulation.friction");
+
+  app.add_option("--encoder-bits", run.sensors.encoder_bits, "encoder resolution per revolution, 0: exact")->type_name("N")->capture_default_str();
+  app.add_option("--current-noise", run.sensors.current_noise, "current noise, standard deviation")->type_name("A")->capture_default_str();
+  app.add_option("--velocity", velocity, "measured or difference (of encoder positions)")
+      ->check(CLI::IsMember({"measured", "difference"}))->capture_default_str();
+  app.add_option("--velocity-noise", run.sensors.velocity_noise, "measured velocity noise, standard deviation")->type_name("RAD/S")->capture_default_str();
+  app.add_option("--time-jitter", run.sensors.time_jitter, "sampling instant jitter, standard deviation")->type_name("S")->capture_default_str();
+  app.add_option("--drop-rate", run.sensors.drop_rate, "probability that a sample is lost")->type_name("P")->capture_default_str();
+
+  std::string links, force = "30:150", rise = "0.02:0.1", hold = "0.05:0.3", release = "0.02:0.1", clamp_hold = "0.5:2";
+  app.add_option("--collisions", run.contacts.count, "number of contacts at random times")->type_name("N")->capture_default_str();
+  app.add_option("--links", links, "links to hit, e.g. 2,3 (default: 2..n)")->type_name("LIST");
+  range_option(app, "--force", force, "peak force range, N");
+  range_option(app, "--rise", rise, "rise time range, s");
+  range_option(app, "--hold", hold, "hold time range, s");
+  range_option(app, "--release", release, "release time range, s");
+  app.add_option("--min-spacing", run.contacts.min_spacing, "quiet time between contacts")->type_name("S")->capture_default_str();
+  app.add_option("--direction", direction, "normal (to the link surface) or any")
+      ->check(CLI::IsMember({"normal", "any"}))->capture_default_str();
+  app.add_option("--clamping", run.contacts.clamp_fraction, "fraction of contacts that are clamps")->type_name("F")->capture_default_str();
+  range_option(app, "--clamp-hold", clamp_hold, "clamp hold time range, s");
+  app.add_option("--clamp-stiffness", run.contacts.clamp_stiffness, "clamping obstacle stiffness")->type_name("N/M")->capture_default_str();
+
+  return tool.run(argc, argv, [&] {
+    sim::parse_trajectory(trajectory, &run.trajectory.kind);
+    sim::parse_integrator(integrator, &run.integrator);
+    sim::parse_velocity_source(velocity, &run.sensors.velocity);
+    sim::parse_direction(direction, &run.contacts.direction);
+    parse_range_or_throw("--force", force, &run.contacts.force_min, &run.contacts.force_max);
+    parse_range_or_throw("--rise", rise, &run.contacts.rise_min, &run.contacts.rise_max);
+    parse_range_or_throw("--hold", hold, &run.contacts.hold_min, &run.contacts.hold_max);
+    parse_range_or_throw("--release", release, &run.contacts.release_min, &run.contacts.release_max);
+    parse_range_or_throw("--clamp-hold", clamp_hold, &run.contacts.clamp_hold_min, &run.contacts.clamp_hold_max);
+    for (double link : cli::parse_number_list(links, "--links")) {
+      if (link != std::floor(link)) throw cli::UsageError("--links: '" + format_number(link) + "' is not a link number");
+      run.contacts.links.push_back(static_cast<int>(link));
+    }
+
+    const model::Profile profile = model::load_profile(tool.profile());
+    const model::Model model = model::build_model(profile);
+    const sim::SimulationSection section = sim::read_simulation_section(profile, model);
+    run.contacts.link_radius = section.link_radius;
+    const double blends = run.trajectory.kind == sim::TrajectoryKind::paper ||
+                                  run.trajectory.kind == sim::TrajectoryKind::multisine
+                              ? 2 * run.trajectory.blend
+                              : 0.0;
+    run.trajectory.duration =
+        duration ? *duration : std::max(60.0, blends + 1.0 + 2.0 * sim::campaign_length(run.contacts));
+    std::string why;
+    if (!run.IsValid(&why)) throw cli::UsageError(why);
+    if (!section.has_friction && !no_friction)
+      warn(tool.profile() + ": no simulation.friction: simulating a frictionless arm");
+    const friction::FrictionModel* friction = section.has_friction && !no_friction ? &section.friction : nullptr;
+
+    stream::WriterOptions writer_options;
+    writer_options.encoding = stream::parse_encoding(output_format);
+    writer_options.line_buffered = line_buffered;
+    auto out = stream::Writer::open(output, writer_options);
+    out->comment(tool.provenance());
+    out->comment(" mo-sim: seed " + std::to_string(tool.seed()) + ", trajectory " + trajectory + ", duration " +
+                 format_number(run.trajectory.duration) + " s, rate " + format_number(run.rate_hz) + " Hz");
+    out->header(sim::sample_columns(model.nq, with_truth));
+
+    std::unique_ptr<stream::Writer> truth;
+    if (!truth_path.empty()) {
+      truth = stream::Writer::open(truth_path, {});
+      truth->comment(tool.provenance());
+      truth->comment(" duration: " + format_number(run.trajectory.duration));
+      truth->header(sim::truth_columns(model.nq));
+    }
+
+    cli::Progress progress(tool.show_progress());
+    std::vector<double> row;
+    sim::RunCallbacks callbacks;
+    callbacks.sample = [&](const sim::Sample& s) {
+      sim::sample_row(s, with_truth, row);
+      out->row(row.data());
+    };
+    std::vector<double> truth_values;
+    callbacks.contact = [&](const sim::ContactTruth& c) {
+      if (!truth) return;
+      sim::truth_row(c, truth_values);
+      truth->row(truth_values.data());
+    };
+    callbacks.progress = [&](double t) {
+      progress.update("mo-sim: " + format_number(t) + " of " + format_number(run.trajectory.duration) + " s simulated");
+    };
+    const sim::RunSummary summary = sim::simulate(model, friction, section.home, run, tool.seed(), callbacks);
+    progress.finish();
+    out->close();
+    if (truth) truth->close();
+    if (summary.max_tracking_error > 0.1)
+      warn("the controller lost track of the trajectory (error up to " + format_number(summary.max_tracking_error) +
+           " rad); lower --bandwidth or check the profile's drives");
+    return cli::kSuccess;
+  });
+}
