@@ -1,0 +1,217 @@
+#pragma once
+// Threshold calibration from collision-free motion (paper section 4: the largest compensated
+// residual over a long undisturbed run, plus a safety margin), in constant memory: a log of any
+// length goes through with a few histograms per joint.
+
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "momentum/detect/motion.hpp"
+#include "momentum/detect/thresholds.hpp"
+
+namespace momentum::detect {
+
+// Counts of non-negative values in log-spaced bins, for quantiles in constant memory.
+// Bins: `bins_per_decade` per decade from `lowest` to `highest`, plus one bin below (values
+// under `lowest`, zero included) and one above. With the default 1000 bins per decade a
+// quantile is known within a relative 0.115% (half a bin).
+class LogHistogram {
+ public:
+  LogHistogram(double lowest = 1e-6, double highest = 1e5, int bins_per_decade = 1000);
+  // Adds one value; NaN is ignored, negative values count as 0.
+  void add(double value);
+  std::uint64_t count() const { return count_; }
+  // Nearest-rank quantile, p in [0,1]: the smallest x such that at least ceil(p * count) values
+  // are <= x, as the geometric centre of its bin clamped to [min, max] of the values added.
+  // Values under `lowest` read as min(lowest, max). NaN when empty.
+  double quantile(double p) const;
+  double max() const { return max_; }
+
+ private:
+  double lowest_, highest_;
+  int per_decade_;
+  std::vector<std::uint64_t> bins_;  // [0]: below lowest, [last]: above highest
+  std::uint64_t count_ = 0;
+  double min_ = INFINITY, max_ = -INFINITY;
+};
+
+// Statistics of |signal| over the rows of one joint in one motion state.
+struct MagnitudeSummary {
+  std::uint64_t samples = 0;
+  double seconds = 0;  // time spent in the state (sum of the rows' time steps), s
+  double rms = 0, p99 = 0, p999 = 0, max = 0;  // Nm; NaN when no samples
+  std::string where_max;  // `file:line` of the row holding the max
+  double t_max = 0;       // its time, s
+};
+
+// Accumulates a MagnitudeSummary: RMS (compensated sum of squares), quantiles (LogHistogram),
+// max and its place.
+class MagnitudeStats {
+ public:
+  // Adds |value| for a row lasting dt seconds. `where` is called only when the value is a new
+  // maximum (it formats a location, which is too slow for every row). NaN values are ignored.
+  template <class Where>
+  void add(double value, double t, double dt, Where&& where) {
+    const double m = std::fabs(value);
+    if (std::isnan(m)) return;
+    ++samples_;
+    seconds_ += dt;
+    // Kahan summation: a 10^8-row log must not lose the small squares.
+    const double y = m * m - compensation_;
+    const double s = squares_ + y;
+    compensation_ = (s - squares_) - y;
+    squares_ = s;
+    histogram_.add(m);
+    if (m > max_) {
+      max_ = m;
+      t_max_ = t;
+      where_max_ = where();
+    }
+  }
+  MagnitudeSummary summary() const;
+  std::uint64_t samples() const { return samples_; }
+
+ private:
+  std::uint64_t samples_ = 0;
+  double seconds_ = 0, squares_ = 0, compensation_ = 0;
+  double max_ = -1, t_max_ = 0;
+  std::string where_max_;
+  LogHistogram histogram_;
+};
+
+// Fits the velocity envelope a + b |dq| of points (|dq|, |x|): the LP
+//   minimise sum_i (a + b v_i)  subject to  a + b v_i >= m_i for every point, b >= 0,
+// i.e. the lowest line above every point on average over the data. The optimum is the support
+// line of the upper convex hull at the mean velocity. Memory: per velocity bin (width
+// `bin_width`) the smallest v and the largest m seen, which stand for the bin conservatively
+// (b >= 0), so the line covers every point added exactly, not just the bins.
+class EnvelopeFitter {
+ public:
+  explicit EnvelopeFitter(double bin_width = 1e-3) : bin_width_(bin_width) {}
+  // Adds one point; v, m >= 0 (absolute values are taken). Non-finite points are ignored.
+  void add(double v, double m);
+  // The fitted line, or nullopt when no point was added. Guarantees a + b * v >= m in floating
+  // point for every point added.
+  std::optional<JointThreshold::Envelope> fit() const;
+  std::uint64_t count() const { return count_; }
+  // Mean threshold the line gives over the points added: a + b * mean(v).
+  double mean_level(const JointThreshold::Envelope& e) const;
+
+ private:
+  double bin_width_;
+  struct Bin {
+    double v_min, m_max;
+  };
+  std::map<long long, Bin> bins_;
+  std::uint64_t count_ = 0;
+  double sum_v_ = 0;
+};
+
+struct CalibrationOptions {
+  // Safety margin added to the largest residual: in Nm, or in percent of it. Exactly one is
+  // used; margin_nm wins when both are set. Both >= 0.
+  std::optional<double> margin_nm;
+  double margin_percent = 10.0;
+  RestRule rest_rule;
+  // Use the rest state (needs dq): rows at rest get their own threshold on |x - baseline|.
+  // Off: every row counts as moving.
+  bool rest_state = true;
+  // Fit the velocity envelope of the moving rows (needs dq columns).
+  bool envelope = false;
+  double envelope_bin = 1e-3;  // rad/s
+  // The max looks like a contact, not noise, when it exceeds contact_ratio * p99.9 of the
+  // same joint and state (checked from 1000 samples on).
+  double contact_ratio = 2.0;
+  // Fewest rest rows for a rest threshold; with fewer the joint uses its moving threshold.
+  std::uint64_t min_rest_samples = 100;
+  bool IsValid(std::string* why) const;
+};
+
+// Per-joint results of a calibration.
+struct JointCalibration {
+  MagnitudeSummary moving;         // |x| while moving (and settling)
+  MagnitudeSummary rest;           // |x - baseline| at rest
+  MagnitudeSummary rest_absolute;  // |x| at rest: what a rest-blind threshold would need
+  std::optional<JointThreshold::Envelope> envelope_raw;  // before the margin
+  double envelope_mean = NAN;  // mean envelope threshold over the moving rows (margin incl.)
+  bool moving_contact = false;  // moving max looks like a contact
+  bool rest_contact = false;    // rest max looks like a contact
+};
+
+struct CalibrationResult {
+  Thresholds thresholds;
+  std::vector<JointCalibration> joints;
+  std::uint64_t rows = 0;
+  std::vector<std::string> streams;  // names of the streams, in order
+  bool have_velocity = false;
+  // Human-readable notes (a joint never at rest, no dq columns, ...), one line each.
+  std::vector<std::string> notes;
+  // True when any joint's max looks like a contact.
+  bool any_contact() const;
+};
+
+// Accumulates collision-free rows of one signal over one or more streams.
+class Calibrator {
+ public:
+  // `joints` >= 1. Throws momentum::Error when options are invalid.
+  Calibrator(Signal signal, std::size_t joints, CalibrationOptions options);
+
+  // Starts a stream: the motion state and the time step restart. `have_velocity`: whether
+  // this stream gives dq (then add() takes non-null dq).
+  void begin_stream(const std::string& name, bool have_velocity);
+
+  // One row: time t (s), residuals x[0..n) (Nm), velocities dq[0..n) (rad/s) or nullptr.
+  // `where()` returns the row's location (`file:line`); it is called only for new maxima.
+  template <class Where>
+  void add(double t, const double* x, const double* dq, Where&& where) {
+    const double dt = std::isnan(t_prev_) || !(t > t_prev_) ? 0.0 : t - t_prev_;
+    t_prev_ = t;
+    ++rows_;
+    for (std::size_t j = 0; j < joints_.size(); ++j) {
+      auto& J = joints_[j];
+      MotionState state = MotionState::moving;
+      if (dq && options_.rest_state) state = J.tracker.update(t, dq[j], x[j]);
+      if (state == MotionState::rest) {
+        J.rest.add(x[j] - J.tracker.baseline(), t, dt, where);
+        J.rest_absolute.add(x[j], t, dt, where);
+      } else {
+        J.moving.add(x[j], t, dt, where);
+        if (dq && options_.envelope) J.envelope.add(std::fabs(dq[j]), std::fabs(x[j]));
+      }
+    }
+  }
+
+  // Thresholds and report from everything added. Throws momentum::Error when a joint has no
+  // finite sample, or its threshold would be 0 (an all-zero residual with a percent margin).
+  CalibrationResult result() const;
+
+ private:
+  struct Joint {
+    RestTracker tracker;
+    MagnitudeStats moving, rest, rest_absolute;
+    EnvelopeFitter envelope;
+  };
+  Signal signal_;
+  CalibrationOptions options_;
+  std::vector<Joint> joints_;
+  std::vector<std::string> streams_;
+  bool have_velocity_ = true;
+  std::uint64_t rows_ = 0;
+  double t_prev_ = NAN;
+};
+
+// The report mo-calibrate prints: one header comment, one row per joint and state (moving,
+// rest, rest_abs), whitespace-aligned so that awk can read it, then the notes and warnings
+// as '#' lines. Columns: signal joint state samples seconds rms p99 p99.9 max t_max where
+// threshold.
+std::string format_calibration_report(const CalibrationResult& result);
+
+// '#' lines comparing the thresholds in place (`old`, or nullptr when the profile has none for
+// the signal) with the new ones, per joint: moving and rest, old -> new, and the change in %.
+std::string format_threshold_changes(const Thresholds* old, const Thresholds& updated);
+
+}  // namespace momentum::detect

@@ -1,0 +1,72 @@
+#pragma once
+// The motion state of one joint, decided row by row from its velocity, and the baseline of its
+// residual while it rests. Calibration and detection use this one rule, so a threshold is
+// always compared with the statistic it was measured on.
+//
+// Why a rest state: a joint at rest holds an unknown part of its static friction (anything in
+// [-tau_s, tau_s]); a friction model driven by velocity noise cannot know which, so the
+// compensated residual of a resting joint sits somewhere in a band several Nm wide. It stays
+// there, though, until the joint moves or is pushed. So at rest the statistic is the change of
+// the residual since the joint settled, which a push moves and static friction does not.
+
+#include <cmath>
+#include <limits>
+
+#include "momentum/detect/thresholds.hpp"
+
+namespace momentum::detect {
+
+enum class MotionState { moving, rest };
+
+class RestTracker {
+ public:
+  RestTracker() = default;
+  explicit RestTracker(RestRule rule) : rule_(rule) {}
+
+  // One row: time t (s), joint velocity dq (rad/s; NaN = unknown, counts as moving) and the
+  // residual x (Nm; a NaN residual does not enter the baseline). `may_rest` false keeps a joint that is not already at rest from entering
+  // rest (used while the joint is part of an open event). Returns the state for this row;
+  // rows while the joint settles (slow, but not yet for rule.time) are moving.
+  MotionState update(double t, double dq, double x, bool may_rest = true) {
+    if (!(std::fabs(dq) < rule_.velocity)) {
+      reset();
+      return MotionState::moving;
+    }
+    if (at_rest_) return MotionState::rest;
+    if (!may_rest) {
+      reset();
+      return MotionState::moving;
+    }
+    if (std::isnan(since_)) since_ = t;
+    if (std::isfinite(x)) {
+      sum_ += x;
+      ++count_;
+    }
+    if (count_ > 0 && t - since_ >= rule_.time) {
+      at_rest_ = true;
+      baseline_ = sum_ / static_cast<double>(count_);
+      return MotionState::rest;
+    }
+    return MotionState::moving;
+  }
+
+  // Mean residual over the settling rows, Nm; meaningful while at rest.
+  double baseline() const { return baseline_; }
+  bool at_rest() const { return at_rest_; }
+  void reset() {
+    at_rest_ = false;
+    since_ = std::numeric_limits<double>::quiet_NaN();
+    sum_ = 0;
+    count_ = 0;
+  }
+
+ private:
+  RestRule rule_;
+  bool at_rest_ = false;
+  double since_ = std::numeric_limits<double>::quiet_NaN();
+  double sum_ = 0;
+  long long count_ = 0;
+  double baseline_ = 0;
+};
+
+}  // namespace momentum::detect

@@ -1,0 +1,93 @@
+#pragma once
+// Per-joint collision thresholds and the motion-state rule they depend on: what mo-calibrate
+// writes into the profile's "thresholds" section and mo-detect reads back.
+//
+// Profile section (one entry per residual signal calibrated, "mu" and/or "r"):
+//
+//   "thresholds": {
+//     "mu": {
+//       "rest": {"velocity": 0.01, "time": 0.1},          // rad/s, s: the rest rule
+//       "margin": {"nm": 0.5},                             // or {"percent": 10}
+//       "joints": [
+//         {"moving": 2.6, "band": 1.1,                     // Nm
+//          "rest": 0.9, "rest_band": 0.3,                  // Nm, optional
+//          "envelope": {"a": 1.7, "b": 0.9}},              // Nm, Nm s/rad, optional
+//         ...
+//       ]
+//     },
+//     "r": {...}
+//   }
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace momentum::detect {
+
+// Which residual columns thresholds apply to: mu<j> (friction-compensated) or r<j>.
+enum class Signal { mu, r };
+std::string_view signal_name(Signal signal);  // "mu" or "r"
+// "mu" or "r"; throws momentum::Error otherwise.
+Signal parse_signal(std::string_view name);
+
+// When a joint counts as at rest: |dq| below `velocity` on every row for at least `time`.
+struct RestRule {
+  double velocity = 0.01;  // rad/s (m/s for prismatic joints), > 0
+  double time = 0.1;       // s, >= 0
+  bool IsValid(std::string* why) const;
+};
+
+// Thresholds of one joint. All in Nm (N for prismatic joints), > 0 when present.
+struct JointThreshold {
+  // Threshold on |signal| while moving (and settling): calibration max + margin.
+  double moving = 0;
+  // 99th percentile of |signal| while moving in the calibration data: the usual band, used for
+  // the onset estimate. 0 when unknown.
+  double band = 0;
+  // Threshold on |signal - baseline| at rest; absent: the joint uses `moving` at rest too.
+  std::optional<double> rest;
+  // 99th percentile of |signal - baseline| at rest. 0 when unknown.
+  double rest_band = 0;
+  // Velocity-dependent moving threshold a + b |dq| (margin included); a > 0, b >= 0.
+  struct Envelope {
+    double a = 0;  // Nm
+    double b = 0;  // Nm s/rad
+  };
+  std::optional<Envelope> envelope;
+};
+
+// Thresholds of every joint for one signal.
+struct Thresholds {
+  Signal signal = Signal::mu;
+  RestRule rest_rule;
+  std::vector<JointThreshold> joints;  // joint 1 first
+  // The margin as calibrated, for reports: exactly one of these is set when known.
+  std::optional<double> margin_nm;
+  std::optional<double> margin_percent;
+  // Checks sizes and signs; `why` names the first problem.
+  bool IsValid(std::string* why) const;
+};
+
+// Reads the thresholds for `signal` from a profile document. Returns nullopt when the document
+// has no "thresholds" section or no entry for the signal. Throws momentum::Error
+// `profile: message` when the entry is malformed (wrong types, non-positive thresholds, b < 0).
+// `where` names the profile in messages.
+std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document, Signal signal,
+                                                  const std::string& where);
+
+// The JSON entry of `thresholds` (the object under "thresholds"/<signal>).
+nlohmann::json thresholds_to_json(const Thresholds& thresholds);
+
+// Stores `thresholds` under document["thresholds"][signal], replacing the previous entry for
+// that signal and keeping the others. Throws momentum::Error when "thresholds" exists and is
+// not an object.
+void store_thresholds(nlohmann::json& document, const Thresholds& thresholds);
+
+// Constant thresholds for `joints` joints from a user list: one value for all joints or one
+// per joint, each > 0. Throws momentum::Error naming the problem.
+Thresholds constant_thresholds(Signal signal, const std::vector<double>& values, std::size_t joints);
+
+}  // namespace momentum::detect

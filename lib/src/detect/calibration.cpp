@@ -1,0 +1,339 @@
+#include "momentum/detect/calibration.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <limits>
+
+#include "momentum/stream/error.hpp"
+
+namespace momentum::detect {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string fmt(double x, const char* format = "%.6g") {
+  char buffer[48];
+  std::snprintf(buffer, sizeof buffer, format, x);
+  return buffer;
+}
+
+}  // namespace
+
+// ---- LogHistogram ----------------------------------------------------------------------
+
+LogHistogram::LogHistogram(double lowest, double highest, int bins_per_decade)
+    : lowest_(lowest), highest_(highest), per_decade_(bins_per_decade) {
+  if (!(lowest > 0 && highest > lowest && bins_per_decade > 0))
+    throw Error("histogram: need 0 < lowest < highest and bins per decade > 0");
+  const double decades = std::log10(highest / lowest);
+  bins_.assign(static_cast<std::size_t>(std::ceil(decades * per_decade_)) + 2, 0);
+}
+
+void LogHistogram::add(double value) {
+  if (std::isnan(value)) return;
+  if (value < 0) value = 0;
+  std::size_t k;
+  if (value < lowest_) {
+    k = 0;
+  } else if (value >= highest_) {
+    k = bins_.size() - 1;
+  } else {
+    const double position = std::log10(value / lowest_) * per_decade_;
+    k = 1 + std::min(static_cast<std::size_t>(position), bins_.size() - 3);
+  }
+  ++bins_[k];
+  ++count_;
+  min_ = std::min(min_, value);
+  max_ = std::max(max_, value);
+}
+
+double LogHistogram::quantile(double p) const {
+  if (count_ == 0) return kNaN;
+  p = std::clamp(p, 0.0, 1.0);
+  const auto rank = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(p * static_cast<double>(count_))));
+  if (rank >= count_) return max_;
+  std::uint64_t seen = 0;
+  for (std::size_t k = 0; k < bins_.size(); ++k) {
+    seen += bins_[k];
+    if (seen < rank) continue;
+    double value;
+    if (k == 0) value = std::min(lowest_, max_);
+    else if (k == bins_.size() - 1) value = max_;
+    else value = lowest_ * std::pow(10.0, (static_cast<double>(k) - 0.5) / per_decade_);
+    return std::clamp(value, min_, max_);
+  }
+  return max_;
+}
+
+// ---- MagnitudeStats --------------------------------------------------------------------
+
+MagnitudeSummary MagnitudeStats::summary() const {
+  MagnitudeSummary s;
+  s.samples = samples_;
+  s.seconds = seconds_;
+  if (samples_ == 0) {
+    s.rms = s.p99 = s.p999 = s.max = s.t_max = kNaN;
+    return s;
+  }
+  s.rms = std::sqrt(std::max(0.0, squares_) / static_cast<double>(samples_));
+  s.p99 = histogram_.quantile(0.99);
+  s.p999 = histogram_.quantile(0.999);
+  s.max = max_;
+  s.t_max = t_max_;
+  s.where_max = where_max_;
+  return s;
+}
+
+// ---- EnvelopeFitter --------------------------------------------------------------------
+
+void EnvelopeFitter::add(double v, double m) {
+  v = std::fabs(v);
+  m = std::fabs(m);
+  if (!std::isfinite(v) || !std::isfinite(m)) return;
+  const auto key = static_cast<long long>(std::floor(v / bin_width_));
+  auto [it, inserted] = bins_.try_emplace(key, Bin{v, m});
+  if (!inserted) {
+    it->second.v_min = std::min(it->second.v_min, v);
+    it->second.m_max = std::max(it->second.m_max, m);
+  }
+  ++count_;
+  sum_v_ += v;
+}
+
+double EnvelopeFitter::mean_level(const JointThreshold::Envelope& e) const {
+  return count_ ? e.a + e.b * (sum_v_ / static_cast<double>(count_)) : kNaN;
+}
+
+std::optional<JointThreshold::Envelope> EnvelopeFitter::fit() const {
+  if (bins_.empty()) return std::nullopt;
+  // Points in increasing v (bins are disjoint velocity intervals, so v_min is increasing).
+  std::vector<Bin> points;
+  points.reserve(bins_.size());
+  for (const auto& [key, bin] : bins_) points.push_back(bin);
+  // Upper convex hull, left to right (Andrew's monotone chain).
+  std::vector<Bin> hull;
+  for (const auto& p : points) {
+    while (hull.size() >= 2) {
+      const Bin& o = hull[hull.size() - 2];
+      const Bin& a = hull.back();
+      const double cross = (a.v_min - o.v_min) * (p.m_max - o.m_max) - (a.m_max - o.m_max) * (p.v_min - o.v_min);
+      if (cross >= 0) hull.pop_back();  // a is on or below the segment o-p
+      else break;
+    }
+    hull.push_back(p);
+  }
+  const double mean_v = sum_v_ / static_cast<double>(count_);
+  auto intercept = [&](double b) {
+    double a = -INFINITY;
+    for (const auto& p : hull) a = std::max(a, p.m_max - b * p.v_min);
+    return a;
+  };
+  // The objective a(b) + b mean_v is convex and piecewise linear in b with breaks at the hull's
+  // edge slopes, so its minimum over b >= 0 is at b = 0 or at one of the positive slopes.
+  double best_b = 0;
+  double best = intercept(0);
+  for (std::size_t i = 1; i < hull.size(); ++i) {
+    const double dv = hull[i].v_min - hull[i - 1].v_min;
+    if (!(dv > 0)) continue;
+    const double b = (hull[i].m_max - hull[i - 1].m_max) / dv;
+    if (!(b > 0) || !std::isfinite(b)) continue;
+    const double level = intercept(b) + b * mean_v;
+    if (level < best * (1 - 1e-12)) {
+      best = level;
+      best_b = b;
+    }
+  }
+  JointThreshold::Envelope e{intercept(best_b), best_b};
+  // Exact cover in floating point: raise a until every bin point is on or under the line.
+  for (const auto& p : points) {
+    while (e.a + e.b * p.v_min < p.m_max) e.a = std::nextafter(e.a, INFINITY);
+  }
+  return e;
+}
+
+// ---- Calibrator ------------------------------------------------------------------------
+
+bool CalibrationOptions::IsValid(std::string* why) const {
+  auto bad = [&](const std::string& text) {
+    if (why) *why = text;
+    return false;
+  };
+  if (margin_nm && !(std::isfinite(*margin_nm) && *margin_nm >= 0)) return bad("margin must be >= 0 Nm");
+  if (!(std::isfinite(margin_percent) && margin_percent >= 0)) return bad("margin percent must be >= 0");
+  if (!rest_rule.IsValid(why)) return false;
+  if (!(envelope_bin > 0 && std::isfinite(envelope_bin))) return bad("envelope bin width must be > 0");
+  if (!(contact_ratio > 1 && std::isfinite(contact_ratio))) return bad("contact ratio must be > 1");
+  return true;
+}
+
+bool CalibrationResult::any_contact() const {
+  for (const auto& j : joints)
+    if (j.moving_contact || j.rest_contact) return true;
+  return false;
+}
+
+Calibrator::Calibrator(Signal signal, std::size_t joints, CalibrationOptions options)
+    : signal_(signal), options_(std::move(options)) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw Error(why);
+  if (joints == 0) throw Error("no joints to calibrate");
+  for (std::size_t j = 0; j < joints; ++j)
+    joints_.push_back(Joint{RestTracker(options_.rest_rule), {}, {}, {}, EnvelopeFitter(options_.envelope_bin)});
+}
+
+void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
+  streams_.push_back(name);
+  have_velocity_ = have_velocity_ && have_velocity;
+  t_prev_ = kNaN;
+  for (auto& J : joints_) J.tracker.reset();
+}
+
+CalibrationResult Calibrator::result() const {
+  CalibrationResult out;
+  out.rows = rows_;
+  out.streams = streams_;
+  out.have_velocity = have_velocity_;
+  out.thresholds.signal = signal_;
+  out.thresholds.rest_rule = options_.rest_rule;
+  if (options_.margin_nm) out.thresholds.margin_nm = *options_.margin_nm;
+  else out.thresholds.margin_percent = options_.margin_percent;
+  auto with_margin = [&](double x) {
+    return options_.margin_nm ? x + *options_.margin_nm : x * (1 + options_.margin_percent / 100);
+  };
+  const std::string sig(signal_name(signal_));
+  if (!options_.rest_state)
+    out.notes.push_back("rest state off (--no-rest): one threshold per joint for every row");
+  else if (!have_velocity_)
+    out.notes.push_back("a stream without dq columns: its rows count as moving (no rest state" +
+                        std::string(options_.envelope ? ", no envelope" : "") + " from it)");
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    const auto& J = joints_[j];
+    const std::string name = sig + std::to_string(j + 1);
+    JointCalibration c;
+    c.moving = J.moving.summary();
+    c.rest = J.rest.summary();
+    c.rest_absolute = J.rest_absolute.summary();
+    JointThreshold T;
+    if (c.moving.samples == 0 && c.rest.samples == 0)
+      throw Error(name + ": no finite sample to calibrate on");
+    auto contact = [&](const MagnitudeSummary& s) {
+      return s.samples >= 1000 && s.max > options_.contact_ratio * s.p999;
+    };
+    if (c.moving.samples > 0) {
+      T.moving = with_margin(c.moving.max);
+      T.band = c.moving.p99;
+      c.moving_contact = contact(c.moving);
+    } else {
+      // Never moved: the absolute residual at rest is all there is for the moving rule.
+      T.moving = with_margin(c.rest_absolute.max);
+      T.band = c.rest_absolute.p99;
+      out.notes.push_back("joint " + std::to_string(j + 1) + " never moved: its moving threshold is its largest |" +
+                          name + "| at rest");
+    }
+    if (c.rest.samples >= options_.min_rest_samples) {
+      T.rest = with_margin(c.rest.max);
+      T.rest_band = c.rest.p99;
+      c.rest_contact = contact(c.rest);
+    } else if (options_.rest_state && (have_velocity_ || c.rest.samples > 0)) {
+      out.notes.push_back("joint " + std::to_string(j + 1) + " rested for " + std::to_string(c.rest.samples) +
+                          " rows (fewer than " + std::to_string(options_.min_rest_samples) +
+                          "): no rest threshold, it uses its moving threshold at rest");
+    }
+    if (options_.envelope && J.envelope.count() > 0) {
+      c.envelope_raw = J.envelope.fit();
+      if (c.envelope_raw) {
+        JointThreshold::Envelope e = *c.envelope_raw;
+        if (options_.margin_nm) {
+          e.a += *options_.margin_nm;
+        } else {
+          e.a *= 1 + options_.margin_percent / 100;
+          e.b *= 1 + options_.margin_percent / 100;
+        }
+        if (e.a > 0) {
+          T.envelope = e;
+          c.envelope_mean = J.envelope.mean_level(e);
+        }
+      }
+    }
+    if (!(T.moving > 0))
+      throw Error(name + ": the residual is 0 on every row; a percent margin gives no threshold (use --margin in Nm)");
+    out.thresholds.joints.push_back(T);
+    out.joints.push_back(c);
+  }
+  return out;
+}
+
+std::string format_calibration_report(const CalibrationResult& r) {
+  const std::string sig(signal_name(r.thresholds.signal));
+  std::string out;
+  out += "# signal " + sig + ": " + std::to_string(r.streams.size()) + " stream" + (r.streams.size() == 1 ? "" : "s") +
+         ", " + std::to_string(r.rows) + " rows; margin ";
+  out += r.thresholds.margin_nm ? fmt(*r.thresholds.margin_nm) + " Nm" : fmt(r.thresholds.margin_percent.value_or(0)) + "%";
+  out += "; rest when |dq| < " + fmt(r.thresholds.rest_rule.velocity) + " rad/s for " +
+         fmt(r.thresholds.rest_rule.time) + " s (rest: |" + sig + " - baseline|, rest_abs: |" + sig + "| at rest)\n";
+  char line[512];
+  std::snprintf(line, sizeof line, "%-6s %-5s %-8s %10s %10s %10s %10s %10s %10s %10s %10s  %s\n", "signal", "joint",
+                "state", "samples", "seconds", "rms", "p99", "p99.9", "max", "t_max", "threshold", "where");
+  out += line;
+  for (std::size_t j = 0; j < r.joints.size(); ++j) {
+    const auto& c = r.joints[j];
+    const auto& T = r.thresholds.joints[j];
+    auto row = [&](const char* state, const MagnitudeSummary& s, std::string threshold) {
+      if (s.samples == 0) return;
+      std::snprintf(line, sizeof line, "%-6s %-5zu %-8s %10llu %10s %10s %10s %10s %10s %10s %10s  %s\n", sig.c_str(),
+                    j + 1, state, static_cast<unsigned long long>(s.samples), fmt(s.seconds).c_str(),
+                    fmt(s.rms).c_str(), fmt(s.p99).c_str(), fmt(s.p999).c_str(), fmt(s.max).c_str(),
+                    fmt(s.t_max).c_str(), threshold.c_str(), s.where_max.c_str());
+      out += line;
+    };
+    row("moving", c.moving, fmt(T.moving));
+    row("rest", c.rest, T.rest ? fmt(*T.rest) : "-");
+    row("rest_abs", c.rest_absolute, "-");
+  }
+  for (std::size_t j = 0; j < r.joints.size(); ++j) {
+    const auto& c = r.joints[j];
+    const auto& T = r.thresholds.joints[j];
+    if (T.envelope)
+      out += "# joint " + std::to_string(j + 1) + " envelope: " + fmt(T.envelope->a) + " + " + fmt(T.envelope->b) +
+             " |dq| Nm (mean over the moving rows " + fmt(c.envelope_mean) + " Nm, constant " + fmt(T.moving) + " Nm)\n";
+  }
+  for (const auto& note : r.notes) out += "# note: " + note + "\n";
+  for (std::size_t j = 0; j < r.joints.size(); ++j) {
+    const auto& c = r.joints[j];
+    auto warn_line = [&](const char* state, const MagnitudeSummary& s) {
+      out += "# warning: " + sig + std::to_string(j + 1) + " " + state + ": max " + fmt(s.max) + " Nm at " +
+             s.where_max + " (t=" + fmt(s.t_max) + " s) is " + fmt(s.max / s.p999, "%.3g") +
+             " times p99.9: looks like a contact, not noise\n";
+    };
+    if (c.moving_contact) warn_line("moving", c.moving);
+    if (c.rest_contact) warn_line("rest", c.rest);
+  }
+  return out;
+}
+
+}  // namespace momentum::detect
+
+namespace momentum::detect {
+
+std::string format_threshold_changes(const Thresholds* old, const Thresholds& updated) {
+  const std::string sig(signal_name(updated.signal));
+  if (!old) return "# " + sig + ": the profile had no thresholds for " + sig + "\n";
+  if (old->joints.size() != updated.joints.size())
+    return "# " + sig + ": the profile had thresholds for " + std::to_string(old->joints.size()) + " joints\n";
+  std::string out;
+  for (std::size_t j = 0; j < updated.joints.size(); ++j) {
+    const auto& a = old->joints[j];
+    const auto& b = updated.joints[j];
+    out += "# change " + sig + std::to_string(j + 1) + ": moving " + fmt(a.moving) + " -> " + fmt(b.moving) + " Nm (" +
+           fmt(100 * (b.moving - a.moving) / a.moving, "%+.1f") + "%)";
+    if (a.rest || b.rest) {
+      out += ", rest " + (a.rest ? fmt(*a.rest) : std::string("-")) + " -> " + (b.rest ? fmt(*b.rest) : std::string("-")) + " Nm";
+      if (a.rest && b.rest) out += " (" + fmt(100 * (*b.rest - *a.rest) / *a.rest, "%+.1f") + "%)";
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace momentum::detect

@@ -1,0 +1,296 @@
+#include "momentum/detect/events.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/stream/format.hpp"
+#include "momentum/stream/writer.hpp"
+
+namespace momentum::detect {
+
+namespace {
+
+constexpr std::size_t npos = static_cast<std::size_t>(-1);
+
+void append_number(std::string& out, double value) {
+  char buffer[40];
+  out.append(buffer, stream::format_double(value, buffer));
+}
+
+std::vector<std::string_view> split_fields(std::string_view line) {
+  std::vector<std::string_view> fields;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start));
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return fields;
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+}  // namespace
+
+std::string_view kind_name(EventKind kind) { return kind == EventKind::onset ? "onset" : "end"; }
+
+std::string_view end_reason_name(EndReason reason) {
+  switch (reason) {
+    case EndReason::release: return "release";
+    case EndReason::eof: return "eof";
+    case EndReason::signal: return "signal";
+    case EndReason::none: break;
+  }
+  return "";
+}
+
+std::string event_header(std::size_t joints) {
+  std::string header = "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by";
+  for (std::size_t j = 1; j <= joints; ++j) header += ",peak" + std::to_string(j);
+  return header;
+}
+
+std::string format_event(const Event& e) {
+  std::string line;
+  line.reserve(64 + 24 * e.peaks.size());
+  append_number(line, e.t_onset_estimate);
+  line += ',';
+  append_number(line, e.t_detect);
+  line += ',';
+  line += std::to_string(e.link);
+  line += ',';
+  for (std::size_t i = 0; i < e.joints.size(); ++i) {
+    if (i) line += ';';
+    line += std::to_string(e.joints[i]);
+  }
+  line += ',';
+  line += kind_name(e.kind);
+  line += ',';
+  line += std::to_string(e.id);
+  line += ',';
+  if (e.kind == EventKind::end && !std::isnan(e.t_end)) append_number(line, e.t_end);
+  line += ',';
+  if (e.kind == EventKind::end) line += end_reason_name(e.ended_by);
+  for (double p : e.peaks) {
+    line += ',';
+    append_number(line, p);
+  }
+  return line;
+}
+
+// ---- writer ----------------------------------------------------------------------------
+
+EventWriter::EventWriter(const std::string& path, std::size_t joints, const std::vector<std::string>& comments)
+    : joints_(joints) {
+  const bool to_stdout = path.empty() || path == "-";
+  name_ = to_stdout ? "<stdout>" : path;
+  fd_ = to_stdout ? STDOUT_FILENO : ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
+  owns_ = !to_stdout;
+  std::string head;
+  for (const auto& c : comments) head += "#" + c + "\n";
+  head += event_header(joints) + "\n";
+  put(head);
+}
+
+EventWriter::~EventWriter() {
+  if (owns_ && fd_ >= 0) ::close(fd_);
+}
+
+void EventWriter::write(const Event& event) {
+  if (event.peaks.size() != joints_)
+    throw Error(name_ + ": event with " + std::to_string(event.peaks.size()) + " peaks, header has " +
+                std::to_string(joints_));
+  put(format_event(event) + "\n");
+  ++rows_;
+}
+
+void EventWriter::put(std::string_view text) {
+  while (!text.empty()) {
+    const ssize_t n = ::write(fd_, text.data(), text.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EPIPE) throw stream::BrokenPipe();
+      throw Error(name_ + ": write error: " + std::strerror(errno));
+    }
+    text.remove_prefix(static_cast<std::size_t>(n));
+  }
+}
+
+// ---- reader ----------------------------------------------------------------------------
+
+std::unique_ptr<EventReader> EventReader::open(const std::string& path) {
+  std::unique_ptr<EventReader> reader(new EventReader());
+  const bool from_stdin = path.empty() || path == "-";
+  reader->name_ = from_stdin ? "<stdin>" : path;
+  reader->file_ = from_stdin ? stdin : std::fopen(path.c_str(), "rb");
+  if (!reader->file_) throw Error(path + ": cannot open: " + std::strerror(errno));
+  reader->owns_ = !from_stdin;
+  std::string line;
+  bool have_header = false;
+  while (reader->read_line(line)) {
+    if (!line.empty() && line.front() == '#') {
+      reader->comments_.push_back(line.substr(1));
+      continue;
+    }
+    if (trim(line).empty()) continue;
+    have_header = true;
+    break;
+  }
+  if (!have_header) throw Error(located(reader->name_, reader->line_, "no header (empty event file)"));
+  const auto fields = split_fields(line);
+  reader->width_ = fields.size();
+  auto find = [&](std::string_view name) {
+    for (std::size_t i = 0; i < fields.size(); ++i)
+      if (trim(fields[i]) == name) return i;
+    return npos;
+  };
+  auto require = [&](std::string_view name) {
+    const std::size_t i = find(name);
+    if (i == npos)
+      throw Error(located(reader->name_, reader->line_, "missing column '" + std::string(name) +
+                                                            "' (not an event file of mo-detect?)"));
+    return i;
+  };
+  reader->c_onset_ = require("t_onset_estimate");
+  reader->c_detect_ = require("t_detect");
+  reader->c_link_ = require("link");
+  reader->c_joints_ = require("joints");
+  reader->c_kind_ = require("kind");
+  reader->c_id_ = require("event");
+  reader->c_end_ = find("t_end");
+  reader->c_ended_by_ = find("ended_by");
+  for (std::size_t j = 1;; ++j) {
+    const std::size_t i = find("peak" + std::to_string(j));
+    if (i == npos) break;
+    reader->c_peaks_.push_back(i);
+  }
+  reader->joints_ = reader->c_peaks_.size();
+  return reader;
+}
+
+EventReader::~EventReader() {
+  if (owns_ && file_) std::fclose(file_);
+}
+
+bool EventReader::read_line(std::string& line) {
+  line.clear();
+  int c;
+  bool any = false;
+  while ((c = std::getc(file_)) != EOF) {
+    any = true;
+    if (c == '\n') break;
+    line += static_cast<char>(c);
+  }
+  if (!any) {
+    if (std::ferror(file_)) throw Error(name_ + ": read error: " + std::strerror(errno));
+    return false;
+  }
+  ++line_;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return true;
+}
+
+std::string EventReader::where() const { return located(name_, line_, ""); }
+
+std::optional<Event> EventReader::next() {
+  std::string line;
+  for (;;) {
+    if (!read_line(line)) return std::nullopt;
+    if (!line.empty() && line.front() == '#') {
+      comments_.push_back(line.substr(1));
+      continue;
+    }
+    if (trim(line).empty()) continue;
+    break;
+  }
+  auto fail = [&](const std::string& message) -> Error { return Error(located(name_, line_, message)); };
+  const auto fields = split_fields(line);
+  if (fields.size() != width_)
+    throw fail(std::to_string(fields.size()) + " fields, header has " + std::to_string(width_));
+  auto number = [&](std::size_t column, const char* what) {
+    auto value = stream::parse_double(trim(fields[column]));
+    if (!value) throw fail(std::string("bad ") + what + " '" + std::string(fields[column]) + "'");
+    return *value;
+  };
+  auto integer = [&](std::string_view text, const char* what) {
+    text = trim(text);
+    long long value = 0;
+    auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (ec != std::errc() || end != text.data() + text.size() || text.empty())
+      throw fail(std::string("bad ") + what + " '" + std::string(text) + "'");
+    return value;
+  };
+  Event e;
+  e.t_onset_estimate = number(c_onset_, "t_onset_estimate");
+  e.t_detect = number(c_detect_, "t_detect");
+  const std::string_view kind = trim(fields[c_kind_]);
+  if (kind == "onset") e.kind = EventKind::onset;
+  else if (kind == "end") e.kind = EventKind::end;
+  else throw fail("bad kind '" + std::string(kind) + "' (onset or end)");
+  const long long id = integer(fields[c_id_], "event");
+  if (id < 1) throw fail("bad event number " + std::to_string(id));
+  e.id = static_cast<std::uint64_t>(id);
+  const long long link = integer(fields[c_link_], "link");
+  const long long n = static_cast<long long>(joints_);
+  if (link < 1 || (n > 0 && link > n)) throw fail("link " + std::to_string(link) + " out of 1.." + std::to_string(n));
+  e.link = static_cast<int>(link);
+  std::string_view list = trim(fields[c_joints_]);
+  while (!list.empty()) {
+    const std::size_t semi = list.find(';');
+    const long long j = integer(list.substr(0, semi), "joint in joints");
+    if (j < 1 || (n > 0 && j > n)) throw fail("joint " + std::to_string(j) + " out of 1.." + std::to_string(n));
+    e.joints.push_back(static_cast<int>(j));
+    if (semi == std::string_view::npos) break;
+    list.remove_prefix(semi + 1);
+  }
+  if (e.joints.empty()) throw fail("no joints in an event");
+  e.t_end = std::numeric_limits<double>::quiet_NaN();
+  if (e.kind == EventKind::end && c_end_ != npos && !trim(fields[c_end_]).empty()) e.t_end = number(c_end_, "t_end");
+  if (e.kind == EventKind::end && c_ended_by_ != npos) {
+    const std::string_view by = trim(fields[c_ended_by_]);
+    if (by == "release") e.ended_by = EndReason::release;
+    else if (by == "eof") e.ended_by = EndReason::eof;
+    else if (by == "signal") e.ended_by = EndReason::signal;
+    else if (!by.empty()) throw fail("bad ended_by '" + std::string(by) + "'");
+  }
+  for (std::size_t c : c_peaks_) e.peaks.push_back(number(c, "peak"));
+  return e;
+}
+
+std::vector<Event> read_events(const std::string& path) {
+  auto reader = EventReader::open(path);
+  std::vector<Event> events;
+  bool pending = false;  // the last event has an onset row and no end row yet
+  while (auto e = reader->next()) {
+    if (e->kind == EventKind::onset) {
+      events.push_back(*e);
+      events.back().t_end = std::numeric_limits<double>::quiet_NaN();
+      events.back().ended_by = EndReason::none;
+      pending = true;
+    } else if (pending && events.back().id == e->id) {
+      events.back() = *e;
+      pending = false;
+    } else {
+      // An end row without its onset row (a file that starts mid-event): keep it.
+      events.push_back(*e);
+      pending = false;
+    }
+  }
+  return events;
+}
+
+}  // namespace momentum::detect

@@ -1,0 +1,147 @@
+// mo-calibrate: per-joint collision thresholds from collision-free motion, into the profile.
+#include <cstdio>
+#include <optional>
+
+#include "momentum/cli/tool.hpp"
+#include "momentum/detect/calibration.hpp"
+#include "momentum/model/profile.hpp"
+#include "momentum/stream/columns.hpp"
+#include "momentum/stream/error.hpp"
+
+using namespace momentum;
+
+int main(int argc, char** argv) {
+  cli::Tool tool("mo-calibrate", "Collision thresholds per joint from collision-free motion, into the profile.");
+  tool.add_inputs("streams of collision-free motion with mu<j> and/or r<j> (- or none: stdin)");
+  tool.add_profile(/*required=*/false);
+  std::string output, signals_option;
+  double margin = 0;
+  bool envelope = false, no_rest = false, reject_contact = false, dry_run = false, strict = false;
+  detect::CalibrationOptions options;
+  auto& app = tool.app();
+  app.add_option("-o,--output", output, "write the updated profile to FILE instead of replacing -p")->type_name("FILE");
+  app.add_option("--signal", signals_option, "mu, r or mu,r (default: those the streams have)")->type_name("LIST");
+  auto* margin_option = app.add_option("--margin", margin, "safety margin in Nm added to the max")->type_name("NM");
+  auto* percent_option = app.add_option("--margin-percent", options.margin_percent,
+                                        "safety margin in percent of the max (default 10)")
+                             ->type_name("P");
+  margin_option->excludes(percent_option);
+  app.add_flag("--envelope", envelope, "also fit a velocity envelope a + b|dq| per joint");
+  app.add_option("--envelope-bin", options.envelope_bin, "velocity resolution of the envelope, rad/s (0.001)")
+      ->type_name("RAD/S");
+  app.add_option("--rest-velocity", options.rest_rule.velocity, "a joint rests below this |dq|, rad/s (0.01)")
+      ->type_name("RAD/S");
+  app.add_option("--rest-time", options.rest_rule.time, "... held for this long, s (0.1)")->type_name("SECONDS");
+  app.add_flag("--no-rest", no_rest, "no rest state: one threshold per joint for all rows");
+  app.add_option("--contact-ratio", options.contact_ratio, "a max over RATIO x p99.9 looks like a contact (2)")
+      ->type_name("RATIO");
+  app.add_flag("--reject-contact", reject_contact, "fail, writing nothing, when a max looks like a contact");
+  app.add_flag("-n,--dry-run", dry_run, "print the report, do not write the profile");
+  app.add_flag("--strict", strict, "stop at the first bad row instead of skipping it");
+
+  return tool.run(argc, argv, [&] {
+    if (*margin_option) options.margin_nm = margin;
+    options.envelope = envelope;
+    options.rest_state = !no_rest;
+    std::string why;
+    if (!options.IsValid(&why)) throw cli::UsageError(why);
+    if (!output.empty() && tool.profile().empty()) throw cli::UsageError("-o needs a profile (-p) to update");
+    std::optional<model::Profile> profile;
+    if (!tool.profile().empty()) profile = model::load_profile(tool.profile());
+
+    std::vector<std::string> inputs = tool.inputs();
+    if (inputs.empty()) inputs.push_back("-");
+    std::vector<detect::Signal> signals;
+    for (const auto& name : cli::split_list(signals_option)) {
+      try {
+        signals.push_back(detect::parse_signal(name));
+      } catch (const Error& e) {
+        throw cli::UsageError(std::string("--signal: ") + e.what());
+      }
+    }
+    std::vector<detect::Calibrator> calibrators;
+    std::size_t joints = 0;
+    std::uint64_t skipped = 0;
+    nlohmann::json logs = nlohmann::json::array();
+    for (const auto& path : inputs) {
+      stream::ReaderOptions reader_options;
+      reader_options.strict = strict;
+      auto in = tool.open_input(path, reader_options);
+      logs.push_back(in->name());
+      if (calibrators.empty()) {
+        if (signals.empty()) {
+          if (in->find("mu1")) signals.push_back(detect::Signal::mu);
+          if (in->find("r1")) signals.push_back(detect::Signal::r);
+          if (signals.empty()) throw Error(in->name() + ": no mu1 or r1 column (run mo-observe first)");
+        }
+        joints = stream::count_joint_columns(in->columns(), detect::signal_name(signals.front()));
+        if (joints == 0) throw Error(in->name() + ": missing column '" + std::string(detect::signal_name(signals.front())) + "1'");
+        if (profile && !profile->joints.empty() && profile->joints.size() != joints)
+          throw Error(in->name() + ": " + std::to_string(joints) + " joints, the profile has " +
+                      std::to_string(profile->joints.size()));
+        for (auto s : signals) calibrators.emplace_back(s, joints, options);
+      }
+      const std::size_t it = in->require("t");
+      std::vector<std::vector<std::size_t>> columns;
+      for (auto s : signals)
+        columns.push_back(stream::column_indices(in->columns(), stream::joint_columns(detect::signal_name(s), joints), in->name()));
+      std::vector<std::size_t> idq;
+      if (stream::count_joint_columns(in->columns(), "dq") >= joints)
+        idq = stream::column_indices(in->columns(), stream::joint_columns("dq", joints), in->name());
+      for (auto& c : calibrators) c.begin_stream(in->name(), !idq.empty());
+      std::vector<double> x(joints), dq(joints);
+      cli::Progress progress(tool.show_progress());
+      auto where = [&] { return in->where(); };
+      while (const double* row = in->next()) {
+        for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
+        for (std::size_t s = 0; s < calibrators.size(); ++s) {
+          for (std::size_t j = 0; j < joints; ++j) x[j] = row[columns[s][j]];
+          calibrators[s].add(row[it], x.data(), idq.empty() ? nullptr : dq.data(), where);
+        }
+        if ((in->rows_read() & 0xffff) == 0) progress.update(in->name() + ": " + std::to_string(in->rows_read()) + " rows");
+      }
+      skipped += in->rows_skipped();
+    }
+    if (skipped) warn(std::to_string(skipped) + " bad row" + (skipped == 1 ? "" : "s") + " skipped");
+
+    std::vector<detect::CalibrationResult> results;
+    for (const auto& c : calibrators) results.push_back(c.result());
+    bool contact = false;
+    for (const auto& r : results) {
+      std::string report = detect::format_calibration_report(r);
+      if (profile) {
+        auto old = detect::thresholds_from_profile(profile->document, r.thresholds.signal, tool.profile());
+        report += detect::format_threshold_changes(old ? &*old : nullptr, r.thresholds);
+      }
+      std::fwrite(report.data(), 1, report.size(), stdout);
+      for (std::size_t j = 0; j < r.joints.size(); ++j) {
+        const auto& c = r.joints[j];
+        const std::string name = std::string(detect::signal_name(r.thresholds.signal)) + std::to_string(j + 1);
+        if (c.moving_contact)
+          warn(name + ": max " + std::to_string(c.moving.max) + " Nm at " + c.moving.where_max +
+               " looks like a contact, not noise (" + std::to_string(c.moving.max / c.moving.p999) + " x p99.9)");
+        if (c.rest_contact)
+          warn(name + " at rest: max " + std::to_string(c.rest.max) + " Nm at " + c.rest.where_max +
+               " looks like a contact, not noise (" + std::to_string(c.rest.max / c.rest.p999) + " x p99.9)");
+      }
+      contact = contact || r.any_contact();
+    }
+    std::fflush(stdout);
+    if (contact && reject_contact) throw Error("the calibration data look like they hold a contact; profile not written");
+    if (!profile || dry_run) return cli::kSuccess;
+
+    nlohmann::json document = profile->document;
+    nlohmann::json details = {{"logs", logs}, {"rows", results.front().rows}};
+    for (const auto& r : results) {
+      detect::store_thresholds(document, r.thresholds);
+      nlohmann::json maxima = nlohmann::json::array();
+      for (const auto& c : r.joints) maxima.push_back(c.moving.samples ? c.moving.max : c.rest_absolute.max);
+      details["max_" + std::string(detect::signal_name(r.thresholds.signal))] = maxima;
+    }
+    details["margin"] = options.margin_nm ? nlohmann::json{{"nm", *options.margin_nm}}
+                                          : nlohmann::json{{"percent", options.margin_percent}};
+    model::append_provenance(document, "mo-calibrate", details);
+    model::save_profile_atomically(document, output.empty() ? tool.profile() : output);
+    return cli::kSuccess;
+  });
+}

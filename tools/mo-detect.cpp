@@ -1,0 +1,222 @@
+// mo-detect: collision events from residuals, live or on recorded logs. Exit status as grep:
+// 0 no collision, 1 collision, 2 error.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <chrono>
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <optional>
+
+#include "momentum/cli/tool.hpp"
+#include "momentum/detect/calibration.hpp"
+#include "momentum/detect/detector.hpp"
+#include "momentum/detect/live.hpp"
+#include "momentum/model/profile.hpp"
+#include "momentum/stream/columns.hpp"
+#include "momentum/stream/error.hpp"
+
+using namespace momentum;
+
+namespace {
+
+constexpr int kNoCollision = 0, kCollision = 1, kError = 2;
+
+detect::Thresholds choose_thresholds(const cli::Tool& tool, detect::Signal signal, const std::string& list,
+                                     std::size_t joints) {
+  if (!list.empty()) return detect::constant_thresholds(signal, cli::parse_number_list(list, "--threshold"), joints);
+  if (tool.profile().empty()) throw cli::UsageError("give a profile (-p) or --threshold");
+  const auto profile = model::load_profile(tool.profile());
+  auto thresholds = detect::thresholds_from_profile(profile.document, signal, tool.profile());
+  const std::string name(detect::signal_name(signal));
+  if (!thresholds)
+    throw Error(tool.profile() + ": no thresholds for " + name + " (run mo-calibrate on " + name +
+                " residuals, or give --threshold)");
+  if (thresholds->joints.size() != joints)
+    throw Error(tool.profile() + ": thresholds for " + std::to_string(thresholds->joints.size()) +
+                " joints, the stream has " + std::to_string(joints) + " " + name + " columns");
+  return *thresholds;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::Tool tool("mo-detect", "Collision events from residuals; exit status 1 when any (0 none, 2 error).");
+  tool.add_inputs("input stream (- or none: stdin)");
+  tool.add_stream_output();
+  tool.add_profile(/*required=*/false);
+  std::string signal_option, threshold_list, events_path, command;
+  bool constant = false, pass = false, stats = false;
+  detect::DetectorOptions options;
+  double onset_band = 0;
+  auto& app = tool.app();
+  app.add_option("--signal", signal_option, "mu or r (default: mu when present, else r)")
+      ->check(CLI::IsMember({"mu", "r"}));
+  app.add_option("--threshold", threshold_list, "constant thresholds in Nm: one, or one per joint")->type_name("LIST");
+  app.add_flag("--constant", constant, "ignore the profile's velocity envelopes");
+  app.add_option("--min-samples", options.min_samples, "consecutive rows over the threshold to fire (default 1)")
+      ->type_name("N")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--release", options.release, "end when all joints are below this fraction of the threshold (0.8)")
+      ->type_name("FRACTION");
+  app.add_option("--hold", options.hold, "... for this many seconds (default 0.2)")->type_name("SECONDS");
+  auto* band_option = app.add_option("--onset-band", onset_band, "onset band as a fraction of the threshold")
+                          ->type_name("FRACTION");
+  app.add_flag("--pass", pass, "pass the stream through with a collision column instead of events");
+  app.add_option("--events", events_path, "with --pass: also write the events to FILE")->type_name("FILE");
+  app.add_option("--on-collision", command, "run CMD (sh -c) per event, without waiting")->type_name("CMD");
+  app.add_flag("--stats", stats, "print rows, events and per-row latency on stderr at the end");
+
+  std::uint64_t collisions = 0;
+  const int status = tool.run(argc, argv, [&]() -> int {
+    try {
+      if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
+      if (!events_path.empty() && !pass) throw cli::UsageError("--events goes with --pass (events are the output)");
+      if (*band_option) options.onset_band = onset_band;
+      options.use_envelope = !constant;
+      std::string why;
+      if (!options.IsValid(&why)) throw cli::UsageError(why);
+
+      const std::string path = tool.inputs().empty() ? "-" : tool.inputs().front();
+      // To wake up on SIGINT/SIGTERM while the input is quiet, the reads of a pipe wait in
+      // poll() on the input and the signal pipe.
+      int poll_fd = -1;
+      struct stat st {};
+      if (path == "-") poll_fd = 0;
+      else if (::stat(path.c_str(), &st) == 0 && (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode))) poll_fd = -2;
+      stream::ReaderOptions reader_options;
+      std::string open_path = path;
+      int own_fd = -1;
+      if (poll_fd == -2) {
+        own_fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (own_fd < 0) throw Error(path + ": cannot open: " + std::strerror(errno));
+        poll_fd = own_fd;
+        open_path = "/dev/fd/" + std::to_string(own_fd);
+        reader_options.display_name = path;
+      }
+      detect::InterruptWatch watch;
+      auto in = tool.open_input(open_path, reader_options);
+
+      const std::size_t it = in->require("t");
+      detect::Signal signal = detect::Signal::mu;
+      if (!signal_option.empty()) signal = detect::parse_signal(signal_option);
+      else if (!in->find("mu1") && in->find("r1")) signal = detect::Signal::r;
+      const std::string prefix(detect::signal_name(signal));
+      const std::size_t n = stream::count_joint_columns(in->columns(), prefix);
+      if (n == 0) throw Error(in->name() + ": missing column '" + prefix + "1'");
+      const auto ix = stream::column_indices(in->columns(), stream::joint_columns(prefix, n), in->name());
+      std::vector<std::size_t> idq;
+      if (stream::count_joint_columns(in->columns(), "dq") >= n)
+        idq = stream::column_indices(in->columns(), stream::joint_columns("dq", n), in->name());
+      const detect::Thresholds thresholds = choose_thresholds(tool, signal, threshold_list, n);
+      bool needs_velocity = false;
+      for (const auto& J : thresholds.joints) needs_velocity = needs_velocity || J.rest || (J.envelope && !constant);
+      if (needs_velocity && idq.empty())
+        warn(in->name() + ": no dq1..dq" + std::to_string(n) +
+             " columns: the rest state and velocity envelopes are off, constant moving thresholds throughout");
+      detect::Detector detector(thresholds, options, !idq.empty());
+
+      std::unique_ptr<stream::Writer> passed;
+      std::unique_ptr<detect::EventWriter> events;
+      std::vector<std::string> comments = in->leading_comments();
+      comments.push_back(tool.provenance());
+      if (pass) {
+        passed = tool.open_output(*in);
+        auto columns = in->columns();
+        columns.push_back("collision");
+        passed->header(columns);
+        stream::Writer* raw = passed.get();
+        in->on_comment([raw](std::string_view c) { raw->comment(c); });
+        if (!events_path.empty()) events = std::make_unique<detect::EventWriter>(events_path, n, comments);
+      } else {
+        events = std::make_unique<detect::EventWriter>(tool.output(), n, comments);
+      }
+      stream::Writer* raw = passed.get();
+      in->before_read([raw, poll_fd, &watch] {
+        if (raw && raw->interactive()) raw->flush();
+        if (poll_fd >= 0 && !watch.wait_readable(poll_fd)) throw detect::Interrupted();
+      });
+      std::optional<detect::CommandRunner> runner;
+      if (!command.empty()) runner.emplace(command);
+
+      detect::LogHistogram latency(1e-3, 1e7, 200);
+      std::vector<double> x(n), dq(n), out(in->columns().size() + 1);
+      double t_prev = -INFINITY;
+      bool interrupted = false;
+      using clock = std::chrono::steady_clock;
+      for (;;) {
+        const double* row = nullptr;
+        try {
+          row = in->next();
+        } catch (const detect::Interrupted&) {
+          interrupted = true;
+          break;
+        }
+        if (!row) break;
+        const auto start = clock::now();
+        const double t = row[it];
+        if (!(t >= t_prev)) {
+          in->reject_row(std::isnan(t) ? "time is nan" : "time goes backwards");
+          continue;
+        }
+        t_prev = t;
+        for (std::size_t j = 0; j < n; ++j) x[j] = row[ix[j]];
+        for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
+        if (const detect::Event* e = detector.step(t, x.data(), dq.data())) {
+          if (events) events->write(*e);
+          if (e->kind == detect::EventKind::onset) {
+            ++collisions;
+            if (runner) runner->launch(*e);
+          }
+        }
+        if (passed) {
+          std::copy(row, row + in->columns().size(), out.begin());
+          out.back() = detector.open_link();
+          passed->row(out.data());
+        }
+        if (runner && runner->running()) runner->reap();
+        latency.add(std::chrono::duration<double, std::micro>(clock::now() - start).count());
+        if (watch.signal() != 0) {
+          interrupted = true;
+          break;
+        }
+      }
+      if (const detect::Event* e = detector.finish(interrupted ? detect::EndReason::signal : detect::EndReason::eof)) {
+        if (events) events->write(*e);
+      }
+      if (passed) passed->close();
+      if (runner) runner->wait_all();
+      if (own_fd >= 0) ::close(own_fd);
+      if (stats) {
+        std::fprintf(stderr, "mo-detect: %" PRIu64 " rows, %" PRIu64 " skipped, %" PRIu64 " events%s\n",
+                     detector.rows(), in->rows_skipped(), detector.events(), interrupted ? " (interrupted)" : "");
+        if (!idq.empty()) {
+          std::fprintf(stderr, "mo-detect: rows at rest per joint:");
+          for (std::size_t j = 0; j < n; ++j) std::fprintf(stderr, " %" PRIu64, detector.rest_rows(j));
+          std::fputc('\n', stderr);
+        }
+        std::fprintf(stderr, "mo-detect: latency per row: median %.3g us, p99 %.3g us, max %.3g us\n",
+                     latency.quantile(0.5), latency.quantile(0.99), latency.max());
+        if (runner)
+          std::fprintf(stderr, "mo-detect: --on-collision: %" PRIu64 " run, %" PRIu64 " failed\n", runner->launched(),
+                       runner->failures());
+      }
+      return collisions > 0 ? kCollision : kNoCollision;
+    } catch (const cli::UsageError&) {
+      throw;
+    } catch (const stream::BrokenPipe&) {
+      return collisions > 0 ? kCollision : kNoCollision;
+    } catch (const std::exception& e) {
+      // cli::Tool maps runtime errors to 1, which here means "collision": errors are 2.
+      std::cerr << "mo-detect: error: " << e.what() << "\n";
+      return kError;
+    }
+  });
+  return status;
+}
