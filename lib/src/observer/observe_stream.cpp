@@ -1,5 +1,6 @@
 #include "momentum/observer/observe_stream.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -24,109 +25,126 @@ std::string short_number(double value) {
   return buffer;
 }
 
-int count_joint_columns(const stream::Reader& in, const std::string& prefix) {
-  int n = 0;
-  while (in.find(prefix + std::to_string(n + 1))) ++n;
-  return n;
+// The largest j for which a column prefix<j> exists (j >= 1), or 0.
+int largest_joint_column(const stream::Reader& in, const std::string& prefix) {
+  int largest = 0;
+  for (const auto& name : in.columns()) {
+    if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string digits = name.substr(prefix.size());
+    if (digits.find_first_not_of("0123456789") != std::string::npos || digits[0] == '0' || digits.size() > 6) continue;
+    largest = std::max(largest, std::stoi(digits));
+  }
+  return largest;
 }
 
 }  // namespace
 
-ObserveStreamSummary observe_stream(stream::Reader& in, stream::Writer& out,
-                                    const model::Model& model, const ObserveStreamOptions& options) {
+namespace {
+MomentumObserver make_observer(stream::Reader& in, const model::Model& model,
+                               const ObserveStreamOptions& options) {
   const int n = model.nq;
   auto fail = [&](const std::string& message) { throw Error(located(in.name(), 0, message)); };
   const std::string chain = "the profile's chain " + model.root + ".." + model.tip + " has " +
                             std::to_string(n) + " joint" + (n == 1 ? "" : "s");
   // Joint columns: q1..qN, dq1..dqN, and tau_m<j> or i<j>; N must be the chain's nq.
-  for (const char* prefix : {"q", "dq"}) {
-    const int found = count_joint_columns(in, prefix);
-    if (found == 0) in.require(std::string(prefix) + "1");
-    if (found != n) {
-      fail("the stream has " + std::to_string(found) + " joint" + (found == 1 ? "" : "s") + " (" +
-           prefix + "1.." + prefix + std::to_string(found) + ") but " + chain);
-    }
+  // The stream's joint count is the largest j among q<j>, dq<j>, tau_m<j>, i<j>; columns
+  // missing below it are reported by name afterwards.
+  int found = 0;
+  for (const char* prefix : {"q", "dq", "tau_m", "i"}) found = std::max(found, largest_joint_column(in, prefix));
+  if (found == 0) in.require("q1");
+  if (found != n) {
+    fail("the stream has " + std::to_string(found) + " joint" + (found == 1 ? "" : "s") +
+         " (columns up to q" + std::to_string(found) + ", dq" + std::to_string(found) + ") but " + chain);
   }
-  const std::size_t t_index = in.require("t");
-  std::vector<std::size_t> q_index(n), dq_index(n), torque_index(n);
-  std::vector<double> torque_scale(n);
+  for (int j = 1; j <= n; ++j) {
+    in.require("q" + std::to_string(j));
+    in.require("dq" + std::to_string(j));
+  }
+  return MomentumObserver(model, options.observer, options.friction);
+}
+}  // namespace
+
+StreamObserver::StreamObserver(stream::Reader& in, const model::Model& model,
+                               const ObserveStreamOptions& options)
+    : in_(in), model_(model), options_(options), observer_(make_observer(in, model, options)) {
+  const int n = model.nq;
+  t_index_ = in.require("t");
+  q_index_.resize(n);
+  dq_index_.resize(n);
+  torque_index_.resize(n);
+  torque_scale_.resize(n);
   for (int j = 0; j < n; ++j) {
     const std::string k = std::to_string(j + 1);
-    q_index[j] = *in.find("q" + k);
-    dq_index[j] = *in.find("dq" + k);
+    q_index_[j] = *in.find("q" + k);
+    dq_index_[j] = *in.find("dq" + k);
     if (auto tau = in.find("tau_m" + k)) {
-      torque_index[j] = *tau;
-      torque_scale[j] = 1.0;
+      torque_index_[j] = *tau;
+      torque_scale_[j] = 1.0;
     } else if (auto current = in.find("i" + k)) {
-      torque_index[j] = *current;
-      torque_scale[j] = model.k_i.size() == n ? model.k_i[j] : 1.0;
+      torque_index_[j] = *current;
+      torque_scale_[j] = model.k_i.size() == n ? model.k_i[j] : 1.0;
     } else {
-      fail("missing column 'tau_m" + k + "' (or 'i" + k + "' with the profile's k_i)");
+      throw Error(located(in.name(), 0, "missing column 'tau_m" + k + "' (or 'i" + k + "' with the profile's k_i)"));
     }
   }
-  const std::string next = std::to_string(n + 1);
-  if (in.find("tau_m" + next) || in.find("i" + next))
-    fail("the stream has torque or current columns for joint " + next + " but " + chain);
-
-  MomentumObserver observer(model, options.observer, options.friction);
-  const bool friction = observer.has_friction();
-
   // Output columns: the input's, then those we add (or overwrite where the input has them).
-  std::vector<std::string> columns = in.columns();
+  columns_ = in.columns();
   auto place = [&](const std::string& name) {
     if (auto existing = in.find(name)) return *existing;
-    columns.push_back(name);
-    return columns.size() - 1;
+    columns_.push_back(name);
+    return columns_.size() - 1;
   };
-  std::vector<std::size_t> r_out(n), tau_f_out, mu_out;
-  for (int j = 0; j < n; ++j) r_out[j] = place("r" + std::to_string(j + 1));
-  if (friction) {
-    for (int j = 0; j < n; ++j) tau_f_out.push_back(place("tau_f" + std::to_string(j + 1)));
-    for (int j = 0; j < n; ++j) mu_out.push_back(place("mu" + std::to_string(j + 1)));
+  for (int j = 0; j < n; ++j) r_out_.push_back(place("r" + std::to_string(j + 1)));
+  if (observer_.has_friction()) {
+    for (int j = 0; j < n; ++j) tau_f_out_.push_back(place("tau_f" + std::to_string(j + 1)));
+    for (int j = 0; j < n; ++j) mu_out_.push_back(place("mu" + std::to_string(j + 1)));
   }
-  std::optional<std::size_t> restart_out;
-  if (options.restart_column) restart_out = place("restart");
-  out.header(columns);
-  in.on_comment([&out](std::string_view text) { out.comment(text); });
+  if (options.restart_column) restart_out_ = place("restart");
+}
 
-  const std::size_t width_in = in.columns().size();
-  std::vector<double> row_out(columns.size());
+ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
+  const int n = model_.nq;
+  const bool friction = observer_.has_friction();
+  out.header(columns_);
+  in_.on_comment([&out](std::string_view text) { out.comment(text); });
+  const std::size_t width_in = in_.columns().size();
+  std::vector<double> row_out(columns_.size());
   std::vector<double> q(n), dq(n), tau(n), r(n), tau_f(n), mu(n);
   ObserveStreamSummary summary;
   std::string bad_run_start;
   std::uint64_t rows = 0;
   double t = 0;
-  while (const double* row = in.next()) {
+  while (const double* row = in_.next()) {
     ++rows;
-    if (options.progress && (rows & 0xffff) == 0) options.progress(rows, t);
-    t = row[t_index];
+    if (options_.progress && (rows & 0xffff) == 0) options_.progress(rows, t);
+    t = row[t_index_];
     for (int j = 0; j < n; ++j) {
-      q[j] = row[q_index[j]];
-      dq[j] = row[dq_index[j]];
-      tau[j] = torque_scale[j] * row[torque_index[j]];
+      q[j] = row[q_index_[j]];
+      dq[j] = row[dq_index_[j]];
+      tau[j] = torque_scale_[j] * row[torque_index_[j]];
     }
-    const double previous_t = observer.last_time();
-    const SampleStatus status = observer.step(t, q.data(), dq.data(), tau.data(), r.data(),
-                                              tau_f.data(), mu.data());
+    const double previous_t = observer_.last_time();
+    const SampleStatus status = observer_.step(t, q.data(), dq.data(), tau.data(), r.data(),
+                                               tau_f.data(), mu.data());
     switch (status) {
       case SampleStatus::time_not_increasing:
         ++summary.rejected_rows;
-        in.reject_row("time does not increase: t=" + exact(t) + " after t=" + exact(previous_t));
+        in_.reject_row("time does not increase: t=" + exact(t) + " after t=" + exact(previous_t));
         continue;
       case SampleStatus::invalid:
-        if (bad_run_start.empty()) bad_run_start = in.where();
+        if (bad_run_start.empty()) bad_run_start = in_.where();
         ++summary.invalid_rows;
         break;
       case SampleStatus::restarted_after_gap:
         ++summary.restarts;
-        warn(in.where() + ": observer restarted at t=" + exact(t) + " after a gap of " +
-             short_number(observer.last_gap()) + " s (median dt " +
-             short_number(observer.median_dt()) + " s)");
+        warn(in_.where() + ": observer restarted at t=" + exact(t) + " after a gap of " +
+             short_number(observer_.last_gap()) + " s (median dt " +
+             short_number(observer_.median_dt()) + " s)");
         break;
       case SampleStatus::restarted_after_bad: {
         ++summary.restarts;
-        const std::uint64_t bad = observer.last_bad_run();
-        warn(in.where() + ": observer restarted at t=" + exact(t) + " after " +
+        const std::uint64_t bad = observer_.last_bad_run();
+        warn(in_.where() + ": observer restarted at t=" + exact(t) + " after " +
              std::to_string(bad) + " row" + (bad == 1 ? "" : "s") + " with nan or inf from " +
              bad_run_start);
         bad_run_start.clear();
@@ -139,22 +157,60 @@ ObserveStreamSummary observe_stream(stream::Reader& in, stream::Writer& out,
         break;
     }
     std::copy(row, row + width_in, row_out.begin());
-    for (int j = 0; j < n; ++j) row_out[r_out[j]] = r[j];
+    for (int j = 0; j < n; ++j) row_out[r_out_[j]] = r[j];
     if (friction) {
       for (int j = 0; j < n; ++j) {
-        row_out[tau_f_out[j]] = tau_f[j];
-        row_out[mu_out[j]] = mu[j];
+        row_out[tau_f_out_[j]] = tau_f[j];
+        row_out[mu_out_[j]] = mu[j];
       }
     }
-    if (restart_out) row_out[*restart_out] = status == SampleStatus::ok ? 0.0 : 1.0;
+    if (restart_out_) row_out[*restart_out_] = status == SampleStatus::ok ? 0.0 : 1.0;
     out.row(row_out.data());
     ++summary.rows_written;
   }
   if (!bad_run_start.empty()) {
-    warn(located(in.name(), 0, "the stream ends with rows with nan or inf from " + bad_run_start));
+    warn(located(in_.name(), 0, "the stream ends with rows with nan or inf from " + bad_run_start));
   }
-  summary.median_dt = observer.median_dt();
+  summary.median_dt = observer_.median_dt();
   return summary;
+}
+
+ObserveStreamSummary observe_stream(stream::Reader& in, stream::Writer& out,
+                                    const model::Model& model, const ObserveStreamOptions& options) {
+  return StreamObserver(in, model, options).run(out);
+}
+
+ObserverOptions observer_options_from_profile(const model::Profile& profile) {
+  const auto it = profile.document.find("observer");
+  if (it == profile.document.end()) return {};
+  std::vector<std::string> warnings;
+  ObserverOptions options;
+  try {
+    options = observer_options_from_json(*it, &warnings);
+  } catch (const Error& e) {
+    throw Error(located(profile.path.string(), 0, e.what()));
+  }
+  for (const auto& w : warnings) warn(located(profile.path.string(), 0, w));
+  return options;
+}
+
+std::optional<friction::FrictionModel> friction_from_profile(const model::Profile& profile, int joints) {
+  const auto it = profile.document.find("friction");
+  if (it == profile.document.end()) return std::nullopt;
+  std::vector<std::string> warnings;
+  friction::FrictionModel model;
+  try {
+    model = friction::friction_from_json(*it, &warnings);
+  } catch (const Error& e) {
+    throw Error(located(profile.path.string(), 0, e.what()));
+  }
+  for (const auto& w : warnings) warn(located(profile.path.string(), 0, w));
+  if (static_cast<int>(model.joints.size()) != joints) {
+    throw Error(located(profile.path.string(), 0,
+                        "friction: " + std::to_string(model.joints.size()) + " joint entries for a chain of " +
+                            std::to_string(joints) + " joints"));
+  }
+  return model;
 }
 
 }  // namespace momentum::observer

@@ -9,9 +9,13 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "momentum/friction/friction.hpp"
 #include "momentum/model/model.hpp"
+#include "momentum/model/profile.hpp"
 #include "momentum/observer/observer.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/writer.hpp"
@@ -37,13 +41,49 @@ struct ObserveStreamSummary {
   double median_dt = 0;             // running median dt at the end, s
 };
 
-// Reads `in` to its end, writing the header and every row to `out` (comments are passed
-// through). Restarts are reported through momentum::warn once each, located at the row where
-// the observer starts again, with the time. A row whose time does not increase is rejected
-// through Reader::reject_row (reported with its location and skipped; an error in strict mode).
-// Throws momentum::Error (`stream: message`) when a needed column is missing or the stream's
-// joint columns do not match the model's nq, and whatever the reader, writer or observer throw.
+// The stream's columns bound to an observer. Construct it before opening the output, so that
+// a stream that does not fit the model fails before anything is written.
+class StreamObserver {
+ public:
+  // Looks the columns up once. Throws momentum::Error (`stream: message`) when t, q<j>,
+  // dq<j> or tau_m<j>/i<j> is missing or the stream's joint columns do not match model.nq,
+  // and what MomentumObserver's constructor throws. `in` and `model` must outlive it.
+  StreamObserver(stream::Reader& in, const model::Model& model, const ObserveStreamOptions& options);
+
+  // Input columns, then the ones the observer adds.
+  const std::vector<std::string>& output_columns() const { return columns_; }
+
+  // Reads `in` to its end, writing the header and every row to `out` (comments are passed
+  // through). Restarts are reported through momentum::warn once each, located at the row where
+  // the observer starts again, with the time. A row whose time does not increase is rejected
+  // through Reader::reject_row (reported with its location and skipped; an error in strict
+  // mode). Throws what the reader and writer throw.
+  ObserveStreamSummary run(stream::Writer& out);
+
+ private:
+  stream::Reader& in_;
+  const model::Model& model_;
+  ObserveStreamOptions options_;
+  MomentumObserver observer_;
+  std::vector<std::string> columns_;
+  std::size_t t_index_ = 0;
+  std::vector<std::size_t> q_index_, dq_index_, torque_index_;
+  std::vector<double> torque_scale_;
+  std::vector<std::size_t> r_out_, tau_f_out_, mu_out_;
+  std::optional<std::size_t> restart_out_;
+};
+
+// StreamObserver(in, model, options).run(out).
 ObserveStreamSummary observe_stream(stream::Reader& in, stream::Writer& out,
                                     const model::Model& model, const ObserveStreamOptions& options);
+
+// The profile's "observer" section (defaults when absent). Throws momentum::Error located at
+// the profile's file for a bad section; unknown keys are reported through momentum::warn.
+ObserverOptions observer_options_from_profile(const model::Profile& profile);
+
+// The profile's "friction" section, or nullopt when absent. Throws momentum::Error located at
+// the profile's file for a bad section or when it does not have `joints` joints; unknown keys
+// are reported through momentum::warn.
+std::optional<friction::FrictionModel> friction_from_profile(const model::Profile& profile, int joints);
 
 }  // namespace momentum::observer
