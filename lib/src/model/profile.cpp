@@ -150,7 +150,9 @@ void save_profile_atomically(const nlohmann::json& document, const std::filesyst
   const std::string text = document.dump(2) + "\n";
   std::filesystem::path folder = path.parent_path();
   if (folder.empty()) folder = ".";
-  std::string temp = (folder / ("." + path.filename().string() + ".XXXXXX")).string();
+  std::string name = ".";
+  name.append(path.filename().string()).append(".XXXXXX");
+  std::string temp = (folder / name).string();
   const int fd = ::mkstemp(temp.data());
   if (fd < 0) fail(path, std::string("cannot create a temporary file: ") + std::strerror(errno));
   auto abandon = [&](const std::string& what) {

@@ -62,7 +62,7 @@ struct DataTpl {
   std::vector<Matrix3> joint_rotation_k2;    // R0 [a]x^2
   std::vector<Vector3> joint_translation;    // t0
   std::vector<Vector3> joint_axis_parent;    // R0 a
-  std::vector<bool> revolute;
+  std::vector<unsigned char> revolute;      // 1 revolute, 0 prismatic
   std::vector<S> mass;
   std::vector<Vector3> com;                  // in body frame
   std::vector<Matrix3> inertia;              // about com, body frame
@@ -82,6 +82,7 @@ struct DataTpl {
   std::vector<Vector3> accel;      // linear acceleration of the origin (inverse dynamics)
   std::vector<Vector3> linear;     // per-body linear momentum or force
   std::vector<Vector3> angular;    // per-body angular momentum or moment about world origin
+  std::vector<Vector3> first_moment;  // per-body m c (world)
   Matrix3 tip_rotation_world;
   Vector3 tip_position_world;
 };

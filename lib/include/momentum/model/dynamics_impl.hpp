@@ -131,7 +131,7 @@ DataTpl<S>::DataTpl(const Model& model) {
     joint_rotation_k2.push_back((r0 * k * k).cast<S>());
     joint_translation.push_back(joint.placement.translation.cast<S>());
     joint_axis_parent.push_back((r0 * joint.axis).cast<S>());
-    revolute.push_back(joint.type == JointType::revolute);
+    revolute.push_back(joint.type == JointType::revolute ? 1 : 0);
   }
   for (const Body& body : model.bodies) {
     mass.push_back(S(body.mass));
@@ -152,6 +152,7 @@ DataTpl<S>::DataTpl(const Model& model) {
   accel.assign(n, Vector3::Zero());
   linear.assign(n, Vector3::Zero());
   angular.assign(n, Vector3::Zero());
+  first_moment.assign(n, Vector3::Zero());
   tip_rotation_world = Matrix3::Identity();
   tip_position_world = Vector3::Zero();
 }
@@ -263,30 +264,79 @@ namespace detail {
 // Shared backward pass of momentum_and_beta and coriolis_transpose_times_velocity. Writes p
 // (if non-null), C^T dq into ct (if non-null) and g - C^T dq into beta (if non-null).
 template <class S>
-void momentum_pass(const Model& model, DataTpl<S>& data, InVector<S> q,
-                   InVector<S> dq, VectorX<S>* p, VectorX<S>* ct, VectorX<S>* beta) {
+void momentum_pass(const Model& model, DataTpl<S>& data, InVector<S> q, InVector<S> dq,
+                   VectorX<S>* p, VectorX<S>* ct, VectorX<S>* beta) {
+  using std::cos;
+  using std::sin;
   using Vector3 = typename DataTpl<S>::Vector3;
+  using Matrix3 = typename DataTpl<S>::Matrix3;
+  check_q("momentum_and_beta", model, data, q);
   check_size("momentum_and_beta", "dq", dq.size(), model.nq);
-  forward_kinematics(model, data, q);
-  forward_velocity(model, data, dq);
   const int n = model.nq;
   if (p) p->resize(n);
   if (ct) ct->resize(n);
   if (beta) beta->resize(n);
+  // Forward: kinematics, velocities and each body's momentum (about the world origin) in one
+  // sweep; this is forward_kinematics + forward_velocity fused for the observer's hot path.
+  Matrix3 rotation_parent = Matrix3::Identity();
+  Vector3 position_parent = Vector3::Zero();
+  Vector3 omega_parent = Vector3::Zero();
+  Vector3 velocity_parent = Vector3::Zero();
+  for (int i = 0; i < n; ++i) {
+    Vector3 translation = data.joint_translation[i];
+    Matrix3 local;
+    const bool revolute = data.revolute[i] != 0;
+    if (revolute) {
+      const S s = sin(q[i]);
+      const S c = cos(q[i]);
+      local = data.joint_rotation[i] + s * data.joint_rotation_k[i] +
+              (S(1.0) - c) * data.joint_rotation_k2[i];
+    } else {
+      local = data.joint_rotation[i];
+      translation += data.joint_axis_parent[i] * q[i];
+    }
+    const Vector3 z = rotation_parent * data.joint_axis_parent[i];
+    const Vector3 position = position_parent + rotation_parent * translation;
+    const Matrix3 rotation = rotation_parent * local;
+    Vector3 velocity = velocity_parent + omega_parent.cross(position - position_parent);
+    Vector3 omega = omega_parent;
+    if (revolute) {
+      omega += z * dq[i];
+    } else {
+      velocity += z * dq[i];
+    }
+    const Vector3 rc = rotation * data.com[i];
+    const Vector3 com = position + rc;
+    const Vector3 l = data.mass[i] * (velocity + omega.cross(rc));
+    const Vector3 spin = rotation * (data.inertia[i] * (rotation.transpose() * omega));
+    data.axis[i] = z;
+    data.position[i] = position;
+    data.rotation[i] = rotation;
+    data.com_offset[i] = rc;
+    data.omega[i] = omega;
+    data.velocity[i] = velocity;
+    data.linear[i] = l;
+    data.angular[i] = spin + com.cross(l);
+    data.first_moment[i] = data.mass[i] * com;
+    rotation_parent = rotation;
+    position_parent = position;
+    omega_parent = omega;
+    velocity_parent = velocity;
+  }
+  data.tip_rotation_world = rotation_parent * data.tip_rotation;
+  data.tip_position_world = position_parent + rotation_parent * data.tip_translation;
+  // Backward: composite mass, first moment and momentum of the subtree, projected on S_i.
   S m = S(0.0);
   Vector3 first_moment = Vector3::Zero();
   Vector3 linear = Vector3::Zero();   // composite linear momentum
   Vector3 angular = Vector3::Zero();  // composite angular momentum about the world origin
   for (int i = n - 1; i >= 0; --i) {
-    const Vector3& w = data.omega[i];
-    const Vector3& rc = data.com_offset[i];
-    const Vector3 c = data.position[i] + rc;
-    const Vector3 l = data.mass[i] * (data.velocity[i] + w.cross(rc));
     m += data.mass[i];
-    first_moment += data.mass[i] * c;
-    linear += l;
-    angular += world_inertia_times(data, i, w) + c.cross(l);
+    first_moment += data.first_moment[i];
+    linear += data.linear[i];
+    angular += data.angular[i];
     const Vector3& z = data.axis[i];
+    const Vector3& w = data.omega[i];
     S pi;
     S cti;
     S gi;
