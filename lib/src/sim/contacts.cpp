@@ -197,7 +197,7 @@ std::vector<Contact> plan_contacts(const ContactOptions& options, const model::M
 
 ActiveContact::ActiveContact(const Contact& contact, const model::Model& model, model::Data& data,
                              const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
-                             const ContactOptions& options)
+                             const ContactOptions& options, const Eigen::Vector3d* heading)
     : contact_(contact), model_(&model), data_(&data), stiffness_(options.clamp_stiffness),
       damping_(options.clamp_damping), peak_torque_(Eigen::VectorXd::Zero(model.nq)),
       generalized_(model.nq) {
@@ -209,7 +209,8 @@ ActiveContact::ActiveContact(const Contact& contact, const model::Model& model, 
   if (contact.clamp) {
     anchor_ = data.position[b] + data.rotation[b] * contact.point;
     const Eigen::Vector3d v = J_ * dq;
-    if (v.norm() > kRestSpeed) direction_ = -v.normalized();
+    if (heading && (*heading - anchor_).norm() > 1e-3) direction_ = -(*heading - anchor_).normalized();
+    else if (v.norm() > kRestSpeed) direction_ = -v.normalized();
   }
 }
 

@@ -11,6 +11,8 @@
 
 namespace momentum::sim {
 
+using Eigen::VectorXd;
+
 namespace {
 
 constexpr std::uint64_t kTrajectoryStream = 1;
@@ -143,7 +145,7 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
   auto schedule = [&](long long index) {
     const double jitter = sensors.next_jitter(period);
     long long s = std::llround(static_cast<double>(index * substeps) + jitter * f_int);
-    s = std::max(s, last_scheduled + 1);
+    s = std::max(std::min(s, total_steps), last_scheduled + 1);
     last_scheduled = s;
     return s;
   };
@@ -172,7 +174,17 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
     if (active && t >= active->contact().t_end) finish_contact();
     if (!active && next_contact < contacts.size() && t + h > contacts[next_contact].t_onset) {
       const Contact& c = contacts[next_contact++];
-      active.emplace(c, model, plant.data(), plant.q(), plant.dq(), options.contacts);
+      std::optional<Eigen::Vector3d> heading;
+      if (c.clamp) {
+        // Where the trajectory takes the point by the end of the hold (a copy, so that a ptp
+        // trajectory still advances in order).
+        Trajectory ahead = trajectory;
+        VectorXd q_goal(n), dq_goal(n), ddq_goal(n);
+        ahead.evaluate(c.t_hold_end, q_goal, dq_goal, ddq_goal);
+        heading = model::point_position(model, plant.data(), q_goal, c.link - 1, c.point);
+      }
+      active.emplace(c, model, plant.data(), plant.q(), plant.dq(), options.contacts,
+                     heading ? &*heading : nullptr);
       truth.emplace();
       truth->contact = c;
       truth->point_world = model::point_position(model, plant.data(), plant.q(), c.link - 1, c.point);

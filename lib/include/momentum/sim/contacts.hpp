@@ -7,7 +7,8 @@
 //   push   a force of fixed world direction whose magnitude follows a profile: raised-cosine
 //          rise to the peak, hold, raised-cosine release (a person bumping into the arm);
 //   clamp  a compliant obstacle (a hand, an arm) appears at the contact point, facing the
-//          point's motion; the arm presses into it with force k d + c dd/dt (d: penetration,
+//          way the point is headed (towards where the trajectory takes it by the end of the
+//          hold, else against its velocity); the arm presses into it with force k d + c dd/dt (d: penetration,
 //          >= 0 only), saturated at the peak (the obstacle gives way beyond it), until the
 //          hold ends, then released like a push. Its force depends on the arm's motion and
 //          its controller, so it holds as long as the arm keeps pressing.
@@ -102,9 +103,12 @@ double campaign_length(const ContactOptions& options);
 class ActiveContact {
  public:
   // Starts `contact` at state (q, dq) at its onset time. `data` is scratch for the model.
+  // `heading` (clamps only, may be null): the world point the contact point is headed for;
+  // the obstacle then faces that way. Without it, or when it is within 1 mm, the obstacle
+  // faces the point's velocity, and at rest the contact's drawn direction.
   ActiveContact(const Contact& contact, const model::Model& model, model::Data& data,
                 const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
-                const ContactOptions& options);
+                const ContactOptions& options, const Eigen::Vector3d* heading = nullptr);
 
   // World force on the robot at the contact point at time t and state (q, dq), N.
   Eigen::Vector3d force(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq);
