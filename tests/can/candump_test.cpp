@@ -261,8 +261,8 @@ TEST(CandumpLines, MalformedLinesSayWhy) {
   EXPECT_EQ(parse_bad("  can0  123   [9]  11"), "bad length field");
   EXPECT_EQ(parse_bad("  can0  123   8  11"), "expected [LEN] after the can id");
   EXPECT_EQ(parse_bad("  can0  123   [2]  1 22"), "bad data byte");
-  EXPECT_EQ(parse_bad("  can0  QQ  [2]  11 22"), "bad can id");
-  EXPECT_EQ(parse_bad("  can0  XX - -  123  [1]  11"), "bad can id");
+  EXPECT_EQ(parse_bad(" (1.000000)  can0  QQ  [2]  11 22"), "bad can id");
+  EXPECT_EQ(parse_bad("  can0  XX - -  123  [1]  11"), "not candump text");
   EXPECT_EQ(parse_bad("  can0  RX Q -  123  [1]  11"), "bad -x fields");
   EXPECT_EQ(parse_bad("DROPCOUNT: lost some"), "bad DROPCOUNT line");
   EXPECT_EQ(parse_bad(" (2015-13-10 06:17:32.249713)  can0  123   [1]  11"), "bad date in timestamp");
@@ -307,7 +307,7 @@ TEST(CandumpReader, StrictStopsAtFirstBadLine) {
     reader->next(f);
     FAIL() << "no error in strict mode";
   } catch (const momentum::Error& e) {
-    EXPECT_STREQ(e.what(), "s.log:2: bad can id");
+    EXPECT_STREQ(e.what(), "s.log:2: not candump text");
   }
 }
 

@@ -475,7 +475,12 @@ LineKind parse_candump_line(std::string_view line, Frame& frame, ParsedLine& inf
   }
 
   tokens.p = after_iface;
-  if (!parse_long_frame(tokens, frame, error)) return bad(error);
+  if (!parse_long_frame(tokens, frame, error)) {
+    // A line with neither a timestamp nor a hex id where the default format has one is not a
+    // damaged frame but something else altogether.
+    if (integer_digits < 0 && std::strcmp(error, "bad can id") == 0) return bad("not candump text");
+    return bad(error);
+  }
   if (integer_digits < 0) {
     info.time_kind = TimeKind::none;
   } else if (integer_digits == 0) {

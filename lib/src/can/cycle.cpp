@@ -237,17 +237,21 @@ bool CycleAssembler::add(const Frame& frame) {
         have_t0_ = true;
         t0_ns_ = frame.time_ns;
         period_index_ = 0;
-        open_cycle(static_cast<double>(t0_ns_) * 1e-9);
+        open_cycle(frame.seconds());
         break;
       }
-      const double elapsed = static_cast<double>(frame.time_ns - t0_ns_) * 1e-9;
-      const auto index = static_cast<std::int64_t>(std::floor(elapsed / options_.period));
+      // Whole nanoseconds, so that cycle k starts at exactly t0 + k * period.
+      const std::int64_t period_ns = std::max<std::int64_t>(1, std::llround(options_.period * 1e9));
+      const std::int64_t index = (frame.time_ns - t0_ns_) >= 0 ? (frame.time_ns - t0_ns_) / period_ns
+                                                                : -((t0_ns_ - frame.time_ns + period_ns - 1) / period_ns);
       if (index > period_index_) {
         closed = any_value_ ? close_cycle() : false;
         if (!closed) ++stats_.empty_periods;
         stats_.empty_periods += static_cast<std::uint64_t>(index - period_index_ - 1);
         period_index_ = index;
-        open_cycle(static_cast<double>(t0_ns_) * 1e-9 + static_cast<double>(index) * options_.period);
+        Frame start;
+        start.time_ns = t0_ns_ + index * period_ns;
+        open_cycle(start.seconds());
       }
       break;
     }

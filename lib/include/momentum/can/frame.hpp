@@ -50,8 +50,13 @@ struct Frame {
 
   // The key under which a DBC file knows this frame: id, plus kExtendedFlag for 29-bit ids.
   std::uint32_t key() const { return extended ? (id | kExtendedFlag) : id; }
-  // Capture time in seconds (double).
-  double seconds() const { return static_cast<double>(time_ns) * 1e-9; }
+  // Capture time in seconds (double): whole seconds plus the fraction, each exact in a double,
+  // so that 1700000000.003 reads as the double nearest to it rather than 1700000000.0030003.
+  double seconds() const {
+    const std::int64_t whole = time_ns / 1000000000;
+    const std::int64_t part = time_ns % 1000000000;
+    return static_cast<double>(whole) + static_cast<double>(part) / 1e9;
+  }
 };
 
 // Clears a frame for reuse (zero payload, no time, no flags).
