@@ -1,0 +1,113 @@
+// Scoring a collision detector against ground truth: which contacts it found, how late, whether
+// it named the right link, and how often it cried wolf.
+//
+// Matching: contacts and events are taken in time order. An event whose t_detect lies in
+// [t_onset, t_onset + window] of a contact not yet detected detects it (the earliest such
+// contact; delay = t_detect - t_onset; isolation right when the event's link is the contact's).
+// An event that detects nothing but falls within a contact's span [t_onset, t_end + window]
+// is not a false alarm: it is a repeat (the contact was already detected) or late (it was not,
+// and its window had passed). Every other event is a false alarm. Collision-free time is the
+// run's duration minus the union of the contacts' spans.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace momentum::eval {
+
+// One detection, from a detector's event file.
+struct Detection {
+  double t_detect = 0;           // s
+  double t_onset_estimate = NAN; // s, NaN when the file has no such column
+  int link = 0;                  // isolated link 1..n, 0 when unknown
+  std::string where;             // file:line, for messages
+};
+
+// One true contact, from mo-sim's --truth file.
+struct TruthContact {
+  double t_onset = 0, t_end = 0;  // s
+  int link = 0;                   // 1..n
+  bool clamp = false;
+  double peak_force = NAN;        // N, NaN when the file has no f_peak column
+};
+
+struct Truth {
+  std::vector<TruthContact> contacts;       // in onset order
+  std::optional<double> duration;           // s, from the "# duration: S" comment when present
+};
+
+// Reads an event file (a path, or "-" for stdin). CSV with a header naming at least t_detect
+// and link; optional t_onset_estimate; other columns are ignored. mo-detect's full format is
+// understood: rows whose "kind" is not "onset" (the end rows) are skipped; without a kind
+// column, only the first row of each "event" number counts. Lines starting with '#' and blank
+// lines are skipped. A row with a bad t_detect or link is reported through momentum::warn and
+// skipped (strict: momentum::Error `file:line: message`). Throws momentum::Error when the file
+// cannot be read or the header lacks t_detect or link.
+std::vector<Detection> read_detections(const std::string& path, bool strict = false);
+
+// Reads mo-sim's truth file (a sample stream: t_onset, t_end, link required; clamp, f_peak
+// optional) and its "# duration: S" comment. Throws momentum::Error when the file cannot be
+// read or a required column is missing; a contact whose t_end precedes its t_onset is an error.
+Truth read_truth(const std::string& path);
+
+struct ScoreOptions {
+  double window = 0.5;               // s after onset within which a detection counts, > 0
+  std::optional<double> duration;    // s; overrides the truth file's
+  bool IsValid(std::string* why) const;
+};
+
+// Outcome of one contact.
+struct ContactOutcome {
+  TruthContact contact;
+  bool detected = false;
+  double delay = NAN;               // s
+  int reported_link = 0;            // of the detecting event
+  double onset_error = NAN;         // t_onset_estimate - t_onset, s (when given)
+};
+
+struct DelayStats {
+  int count = 0;
+  double min = NAN, median = NAN, p95 = NAN, max = NAN, mean = NAN;  // s
+};
+
+struct LinkScore {
+  int link = 0;
+  int contacts = 0, detected = 0, isolated = 0;
+  DelayStats delay;
+};
+
+struct Score {
+  double window = 0;
+  std::optional<double> duration;           // s, when known
+  int contacts = 0, detected = 0, missed = 0;
+  int events = 0, false_alarms = 0, repeats = 0, late = 0;
+  std::optional<double> collision_free;     // s, when the duration is known
+  std::optional<double> false_alarms_per_hour;
+  DelayStats delay;
+  int isolated = 0;                          // detected contacts with the right link
+  DelayStats onset_error;                    // |t_onset_estimate - t_onset|, when given
+  std::vector<LinkScore> by_link;            // ascending link
+  std::vector<ContactOutcome> outcomes;      // per contact, onset order
+  std::vector<double> false_alarm_times;     // t_detect of each false alarm
+};
+
+// Matches `detections` to `truth` (see the top of this file). Throws momentum::Error for invalid
+// options.
+Score score(const Truth& truth, const std::vector<Detection>& detections, const ScoreOptions& options);
+
+// Percentiles of a sample by linear interpolation between order statistics (numpy's default);
+// p in [0, 100]. NaN for an empty sample.
+double percentile(std::vector<double> values, double p);
+
+// The score as a table for a person (lines end with '\n'); `list` adds one line per contact
+// and per false alarm.
+std::string format_table(const Score& score, bool list);
+
+// The score for scripts (times in seconds; null for unknown values).
+nlohmann::json to_json(const Score& score);
+
+}  // namespace momentum::eval

@@ -1,0 +1,391 @@
+#include "momentum/eval/score.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/stream/format.hpp"
+#include "momentum/stream/reader.hpp"
+
+namespace momentum::eval {
+
+namespace {
+
+std::string trim(std::string_view text) {
+  std::size_t a = 0, b = text.size();
+  while (a < b && std::isspace(static_cast<unsigned char>(text[a]))) ++a;
+  while (b > a && std::isspace(static_cast<unsigned char>(text[b - 1]))) --b;
+  std::string out(text.substr(a, b - a));
+  if (out.size() >= 2 && out.front() == '"' && out.back() == '"') out = out.substr(1, out.size() - 2);
+  return out;
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> fields;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t comma = line.find(',', start);
+    fields.push_back(trim(std::string_view(line).substr(start, comma == std::string::npos ? std::string::npos : comma - start)));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return fields;
+}
+
+std::string lower(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+std::string ms(double seconds) {
+  if (!std::isfinite(seconds)) return "-";
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.1f", seconds * 1e3);
+  return buffer;
+}
+
+std::string fixed(double value, int digits) {
+  char buffer[48];
+  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
+  return buffer;
+}
+
+std::string percent(int part, int whole) {
+  if (whole == 0) return "-";
+  return fixed(100.0 * part / whole, 1) + "%";
+}
+
+DelayStats stats_of(const std::vector<double>& values) {
+  DelayStats s;
+  s.count = static_cast<int>(values.size());
+  if (values.empty()) return s;
+  s.min = *std::min_element(values.begin(), values.end());
+  s.max = *std::max_element(values.begin(), values.end());
+  s.median = percentile(values, 50);
+  s.p95 = percentile(values, 95);
+  double sum = 0;
+  for (double v : values) sum += v;
+  s.mean = sum / static_cast<double>(values.size());
+  return s;
+}
+
+nlohmann::json number_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+nlohmann::json stats_json(const DelayStats& s) {
+  return {{"count", s.count},          {"min", number_or_null(s.min)},   {"median", number_or_null(s.median)},
+          {"p95", number_or_null(s.p95)}, {"max", number_or_null(s.max)}, {"mean", number_or_null(s.mean)}};
+}
+
+}  // namespace
+
+std::vector<Detection> read_detections(const std::string& path, bool strict) {
+  const bool from_stdin = path.empty() || path == "-";
+  const std::string name = from_stdin ? "<stdin>" : path;
+  std::ifstream file;
+  if (!from_stdin) {
+    file.open(path);
+    if (!file) throw Error(name + ": cannot open event file");
+  }
+  std::istream& in = from_stdin ? std::cin : file;
+
+  std::vector<Detection> detections;
+  std::vector<std::string> header;
+  std::size_t c_detect = 0, c_link = 0;
+  std::optional<std::size_t> c_onset, c_kind, c_event;
+  std::map<std::string, bool> seen_events;
+  std::string line;
+  std::uint64_t number = 0;
+  auto reject = [&](const std::string& message) {
+    if (strict) throw Error(located(name, number, message));
+    warn(located(name, number, message + "; row skipped"));
+  };
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (trim(line).empty() || line[0] == '#') continue;
+    std::vector<std::string> fields = split_csv(line);
+    if (header.empty()) {
+      header = fields;
+      auto find = [&](const char* column) -> std::optional<std::size_t> {
+        for (std::size_t k = 0; k < header.size(); ++k)
+          if (header[k] == column) return k;
+        return std::nullopt;
+      };
+      const auto d = find("t_detect"), l = find("link");
+      if (!d || !l)
+        throw Error(located(name, number, std::string("event file needs columns t_detect and link (missing ") +
+                                              (d ? "link" : "t_detect") + ")"));
+      c_detect = *d, c_link = *l;
+      c_onset = find("t_onset_estimate");
+      c_kind = find("kind");
+      c_event = find("event");
+      continue;
+    }
+    if (fields.size() != header.size()) {
+      reject(std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
+      continue;
+    }
+    if (c_kind && lower(fields[*c_kind]) != "onset") continue;
+    if (!c_kind && c_event) {
+      if (seen_events[fields[*c_event]]) continue;
+      seen_events[fields[*c_event]] = true;
+    }
+    Detection d;
+    d.where = name + ":" + std::to_string(number);
+    const auto t = stream::parse_double(fields[c_detect]);
+    if (!t || !std::isfinite(*t)) {
+      reject("t_detect '" + fields[c_detect] + "' is not a time");
+      continue;
+    }
+    d.t_detect = *t;
+    if (!fields[c_link].empty()) {
+      const auto link = stream::parse_double(fields[c_link]);
+      if (!link || *link != std::floor(*link) || *link < 0 || *link > 1e6) {
+        reject("link '" + fields[c_link] + "' is not a link number");
+        continue;
+      }
+      d.link = static_cast<int>(*link);
+    }
+    if (c_onset) {
+      const auto onset = stream::parse_double(fields[*c_onset]);
+      if (onset) d.t_onset_estimate = *onset;
+    }
+    detections.push_back(d);
+  }
+  if (header.empty()) throw Error(name + ": event file has no header (t_detect,link,...)");
+  return detections;
+}
+
+Truth read_truth(const std::string& path) {
+  auto reader = stream::Reader::open(path);
+  Truth truth;
+  for (const auto& comment : reader->leading_comments()) {
+    const std::string text = trim(comment);
+    const std::string key = "duration:";
+    if (text.rfind(key, 0) == 0) {
+      const auto value = stream::parse_double(trim(text.substr(key.size())));
+      if (value && *value > 0) truth.duration = *value;
+    }
+  }
+  const std::size_t c_onset = reader->require("t_onset"), c_end = reader->require("t_end"),
+                    c_link = reader->require("link");
+  const auto c_clamp = reader->find("clamp"), c_force = reader->find("f_peak");
+  while (const double* row = reader->next()) {
+    TruthContact c;
+    c.t_onset = row[c_onset];
+    c.t_end = row[c_end];
+    const double link = row[c_link];
+    if (!(c.t_end >= c.t_onset))
+      throw Error(reader->where() + ": contact ends (" + std::to_string(c.t_end) + ") before its onset");
+    if (!(link >= 1 && link == std::floor(link) && link <= 1e6))
+      throw Error(reader->where() + ": link must be a positive whole number");
+    c.link = static_cast<int>(link);
+    if (c_clamp) c.clamp = row[*c_clamp] != 0;
+    if (c_force) c.peak_force = row[*c_force];
+    truth.contacts.push_back(c);
+  }
+  std::stable_sort(truth.contacts.begin(), truth.contacts.end(),
+                   [](const TruthContact& a, const TruthContact& b) { return a.t_onset < b.t_onset; });
+  return truth;
+}
+
+bool ScoreOptions::IsValid(std::string* why) const {
+  if (!(std::isfinite(window) && window > 0)) {
+    if (why) *why = "window must be a positive number of seconds";
+    return false;
+  }
+  if (duration && !(std::isfinite(*duration) && *duration > 0)) {
+    if (why) *why = "duration must be a positive number of seconds";
+    return false;
+  }
+  return true;
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return NAN;
+  std::sort(values.begin(), values.end());
+  const double position = std::clamp(p, 0.0, 100.0) / 100.0 * static_cast<double>(values.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(position));
+  const std::size_t hi = std::min(lo + 1, values.size() - 1);
+  const double fraction = position - static_cast<double>(lo);
+  return values[lo] + fraction * (values[hi] - values[lo]);
+}
+
+Score score(const Truth& truth, const std::vector<Detection>& detections, const ScoreOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw Error(why);
+  Score s;
+  s.window = options.window;
+  s.duration = options.duration ? options.duration : truth.duration;
+  s.contacts = static_cast<int>(truth.contacts.size());
+  s.events = static_cast<int>(detections.size());
+  for (const auto& c : truth.contacts) s.outcomes.push_back({c});
+
+  std::vector<const Detection*> events;
+  for (const auto& d : detections) events.push_back(&d);
+  std::stable_sort(events.begin(), events.end(),
+                   [](const Detection* a, const Detection* b) { return a->t_detect < b->t_detect; });
+
+  const double w = options.window;
+  for (const Detection* e : events) {
+    const double t = e->t_detect;
+    ContactOutcome* hit = nullptr;
+    bool in_span = false;
+    for (auto& o : s.outcomes) {
+      if (o.contact.t_onset > t) break;
+      if (!o.detected && t <= o.contact.t_onset + w && !hit) hit = &o;
+      if (t <= std::max(o.contact.t_end, o.contact.t_onset) + w) in_span = true;
+    }
+    if (hit) {
+      hit->detected = true;
+      hit->delay = t - hit->contact.t_onset;
+      hit->reported_link = e->link;
+      if (std::isfinite(e->t_onset_estimate)) hit->onset_error = e->t_onset_estimate - hit->contact.t_onset;
+    } else if (in_span) {
+      // Within some contact's span: a repeat when one there is detected, else late.
+      bool any_detected = false;
+      for (const auto& o : s.outcomes)
+        if (o.contact.t_onset <= t && t <= std::max(o.contact.t_end, o.contact.t_onset) + w && o.detected)
+          any_detected = true;
+      (any_detected ? s.repeats : s.late)++;
+    } else {
+      ++s.false_alarms;
+      s.false_alarm_times.push_back(t);
+    }
+  }
+
+  std::vector<double> delays, onset_errors;
+  std::map<int, std::vector<double>> link_delays;
+  std::map<int, LinkScore> by_link;
+  for (const auto& o : s.outcomes) {
+    LinkScore& l = by_link[o.contact.link];
+    l.link = o.contact.link;
+    ++l.contacts;
+    if (!o.detected) continue;
+    ++s.detected;
+    ++l.detected;
+    delays.push_back(o.delay);
+    link_delays[o.contact.link].push_back(o.delay);
+    if (o.reported_link == o.contact.link) ++s.isolated, ++l.isolated;
+    if (std::isfinite(o.onset_error)) onset_errors.push_back(std::abs(o.onset_error));
+  }
+  s.missed = s.contacts - s.detected;
+  s.delay = stats_of(delays);
+  s.onset_error = stats_of(onset_errors);
+  for (auto& [link, l] : by_link) {
+    l.delay = stats_of(link_delays[link]);
+    s.by_link.push_back(l);
+  }
+
+  if (s.duration) {
+    // Union of the spans [onset, end + window] within [0, duration].
+    double busy = 0, covered_to = 0;
+    for (const auto& c : truth.contacts) {
+      const double a = std::max(c.t_onset, covered_to);
+      const double b = std::min(std::max(c.t_end, c.t_onset) + w, *s.duration);
+      if (b > a) busy += b - a;
+      covered_to = std::max(covered_to, b);
+    }
+    s.collision_free = std::max(0.0, *s.duration - busy);
+    if (*s.collision_free > 0) s.false_alarms_per_hour = s.false_alarms / (*s.collision_free / 3600.0);
+  }
+  return s;
+}
+
+std::string format_table(const Score& s, bool list) {
+  std::string out;
+  auto line = [&](const std::string& label, const std::string& value) {
+    char buffer[40];
+    std::snprintf(buffer, sizeof buffer, "%-14s", label.c_str());
+    out += buffer + value + "\n";
+  };
+  line("contacts", std::to_string(s.contacts) + (s.duration ? " in " + fixed(*s.duration, 1) + " s" : "") +
+                       ", window " + ms(s.window) + " ms");
+  line("detected", std::to_string(s.detected) + " of " + std::to_string(s.contacts) + " (" +
+                       percent(s.detected, s.contacts) + ")");
+  line("missed", std::to_string(s.missed));
+  std::string fa = std::to_string(s.false_alarms);
+  if (s.false_alarms_per_hour)
+    fa += " (" + fixed(*s.false_alarms_per_hour, 2) + " per hour over " + fixed(*s.collision_free / 3600.0, 3) +
+          " h collision-free)";
+  else
+    fa += " (rate unknown: no duration; give --duration)";
+  line("false alarms", fa);
+  if (s.repeats || s.late)
+    line("other events", std::to_string(s.repeats) + " repeat, " + std::to_string(s.late) + " late");
+  if (s.delay.count)
+    line("delay", "min " + ms(s.delay.min) + "  median " + ms(s.delay.median) + "  p95 " + ms(s.delay.p95) +
+                      "  max " + ms(s.delay.max) + " ms");
+  else
+    line("delay", "-");
+  line("isolation", std::to_string(s.isolated) + " of " + std::to_string(s.detected) + " right (" +
+                        percent(s.isolated, s.detected) + ")");
+  if (s.onset_error.count)
+    line("onset error", "median " + ms(s.onset_error.median) + "  max " + ms(s.onset_error.max) + " ms");
+  if (!s.by_link.empty()) {
+    out += "\nlink  contacts  detected  isolated  median delay\n";
+    for (const auto& l : s.by_link) {
+      char buffer[96];
+      std::snprintf(buffer, sizeof buffer, "%4d  %8d  %8d  %8d  %9s ms\n", l.link, l.contacts, l.detected, l.isolated,
+                    ms(l.delay.median).c_str());
+      out += buffer;
+    }
+  }
+  if (list) {
+    out += "\n";
+    for (const auto& o : s.outcomes) {
+      std::string text = "contact t " + fixed(o.contact.t_onset, 3) + " link " + std::to_string(o.contact.link);
+      if (std::isfinite(o.contact.peak_force)) text += " " + fixed(o.contact.peak_force, 1) + " N";
+      if (o.contact.clamp) text += " clamp";
+      if (o.detected)
+        text += ": detected after " + ms(o.delay) + " ms, link " + std::to_string(o.reported_link) +
+                (o.reported_link == o.contact.link ? "" : " (wrong)");
+      else
+        text += ": MISSED";
+      out += text + "\n";
+    }
+    for (double t : s.false_alarm_times) out += "false alarm t " + fixed(t, 3) + "\n";
+  }
+  return out;
+}
+
+nlohmann::json to_json(const Score& s) {
+  nlohmann::json j;
+  j["window_s"] = s.window;
+  j["duration_s"] = s.duration ? nlohmann::json(*s.duration) : nlohmann::json(nullptr);
+  j["contacts"] = s.contacts;
+  j["detected"] = s.detected;
+  j["missed"] = s.missed;
+  j["detection_rate"] = s.contacts ? nlohmann::json(double(s.detected) / s.contacts) : nlohmann::json(nullptr);
+  j["events"] = s.events;
+  j["false_alarms"] = s.false_alarms;
+  j["false_alarms_per_hour"] = s.false_alarms_per_hour ? nlohmann::json(*s.false_alarms_per_hour) : nlohmann::json(nullptr);
+  j["collision_free_s"] = s.collision_free ? nlohmann::json(*s.collision_free) : nlohmann::json(nullptr);
+  j["repeats"] = s.repeats;
+  j["late"] = s.late;
+  j["delay_s"] = stats_json(s.delay);
+  j["isolated"] = s.isolated;
+  j["isolation_rate"] = s.detected ? nlohmann::json(double(s.isolated) / s.detected) : nlohmann::json(nullptr);
+  j["onset_error_s"] = stats_json(s.onset_error);
+  j["by_link"] = nlohmann::json::array();
+  for (const auto& l : s.by_link)
+    j["by_link"].push_back({{"link", l.link}, {"contacts", l.contacts}, {"detected", l.detected},
+                            {"isolated", l.isolated}, {"delay_s", stats_json(l.delay)}});
+  j["contacts_detail"] = nlohmann::json::array();
+  for (const auto& o : s.outcomes)
+    j["contacts_detail"].push_back({{"t_onset", o.contact.t_onset}, {"t_end", o.contact.t_end},
+                                    {"link", o.contact.link}, {"clamp", o.contact.clamp},
+                                    {"peak_force", number_or_null(o.contact.peak_force)},
+                                    {"detected", o.detected}, {"delay_s", number_or_null(o.delay)},
+                                    {"reported_link", o.reported_link}});
+  j["false_alarm_times"] = s.false_alarm_times;
+  return j;
+}
+
+}  // namespace momentum::eval

@@ -1,0 +1,148 @@
+// mo-eval's matching on a hand-made case whose every count is worked out by hand, and the
+// readers on the formats they must accept.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "momentum/eval/score.hpp"
+#include "momentum/stream/error.hpp"
+
+namespace momentum::eval {
+namespace {
+
+std::string write_temp(const std::string& name, const std::string& text) {
+  const auto dir = std::filesystem::temp_directory_path() / ("momentum-eval-test-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto path = dir / name;
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+// Five contacts over 100 s (see the events below for the outcome of each).
+const char* kTruth =
+    "# mo-sim (hand-made)\n"
+    "# duration: 100\n"
+    "t_onset,t_end,link,clamp,f_peak\n"
+    "10,10.5,2,0,80\n"
+    "20,21,3,0,60\n"
+    "30,30.2,3,0,40\n"
+    "40,42,2,1,120\n"
+    "50,50.3,3,0,90\n";
+
+// In mo-detect's format, out of order, with end rows that must be ignored.
+const char* kEvents =
+    "# mo-detect (hand-made)\n"
+    "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,peak2,peak3\n"
+    "4.9,5,1,1,onset,1,,,9,0,0\n"            // before any contact: false alarm
+    "4.9,5,1,1,end,1,5.2,release,9,0,0\n"
+    "10.02,10.08,2,1;2,onset,2,,,9,9,0\n"    // contact 1: 80 ms, link right
+    "10.02,10.3,2,1;2,end,2,10.9,release,9,9,0\n"
+    "20.01,20.05,2,1;2,onset,3,,,9,9,0\n"    // contact 2: 50 ms, link wrong (2 for 3)
+    "10.25,10.3,2,1;2,onset,4,,,9,9,0\n"     // contact 1 again: a repeat
+    "40.7,40.8,2,1;2,onset,5,,,9,9,0\n"      // contact 4 after its 0.5 s window: late, missed
+    "50.4,50.5,3,1;2;3,onset,6,,,9,9,9\n"    // contact 5 at the window's edge: 500 ms, right
+    "59.9,60,1,1,onset,7,,,9,0,0\n";         // collision-free: false alarm
+// Contact 3 (t 30) has no event: missed.
+
+TEST(Score, HandMadeCase) {
+  const Truth truth = read_truth(write_temp("truth.csv", kTruth));
+  ASSERT_EQ(truth.contacts.size(), 5u);
+  ASSERT_TRUE(truth.duration.has_value());
+  EXPECT_EQ(*truth.duration, 100.0);
+  const auto events = read_detections(write_temp("events.csv", kEvents));
+  ASSERT_EQ(events.size(), 7u);  // onset rows only
+  const Score s = score(truth, events, {});
+  EXPECT_EQ(s.contacts, 5);
+  EXPECT_EQ(s.detected, 3);
+  EXPECT_EQ(s.missed, 2);
+  EXPECT_EQ(s.false_alarms, 2);
+  EXPECT_EQ(s.repeats, 1);
+  EXPECT_EQ(s.late, 1);
+  EXPECT_EQ(s.isolated, 2);
+  EXPECT_NEAR(s.delay.min, 0.05, 1e-12);
+  EXPECT_NEAR(s.delay.median, 0.08, 1e-12);
+  EXPECT_NEAR(s.delay.max, 0.5, 1e-12);
+  EXPECT_NEAR(s.delay.p95, 0.08 + 0.9 * (0.5 - 0.08), 1e-12);  // sorted .05 .08 .5, position 1.9
+  // Busy spans [onset, end + 0.5]: 1 + 1.5 + 0.7 + 2.5 + 0.8 = 6.5 s of 100.
+  ASSERT_TRUE(s.collision_free.has_value());
+  EXPECT_NEAR(*s.collision_free, 93.5, 1e-12);
+  EXPECT_NEAR(*s.false_alarms_per_hour, 2 / (93.5 / 3600), 1e-9);
+  EXPECT_EQ(s.false_alarm_times, (std::vector<double>{5, 60}));
+  // Onset estimates: |10.02 - 10|, |20.01 - 20|, |50.4 - 50| -> median 0.02.
+  EXPECT_NEAR(s.onset_error.median, 0.02, 1e-12);
+  ASSERT_EQ(s.by_link.size(), 2u);
+  EXPECT_EQ(s.by_link[0].link, 2);
+  EXPECT_EQ(s.by_link[0].contacts, 2);
+  EXPECT_EQ(s.by_link[0].detected, 1);
+  EXPECT_EQ(s.by_link[0].isolated, 1);
+  EXPECT_EQ(s.by_link[1].contacts, 3);
+  EXPECT_EQ(s.by_link[1].detected, 2);
+  EXPECT_EQ(s.by_link[1].isolated, 1);
+
+  // A tighter window loses contact 5 (500 ms) and its event becomes late.
+  ScoreOptions narrow;
+  narrow.window = 0.2;
+  const Score t = score(truth, events, narrow);
+  EXPECT_EQ(t.detected, 2);
+  EXPECT_EQ(t.late, 2);
+  EXPECT_EQ(t.false_alarms, 2);
+
+  const auto json = to_json(s);
+  EXPECT_EQ(json["detected"], 3);
+  EXPECT_EQ(json["false_alarms"], 2);
+  EXPECT_NEAR(json["delay_s"]["median"].get<double>(), 0.08, 1e-12);
+  const std::string table = format_table(s, true);
+  EXPECT_NE(table.find("detected      3 of 5 (60.0%)"), std::string::npos) << table;
+  EXPECT_NE(table.find("contact t 30.000 link 3 40.0 N: MISSED"), std::string::npos) << table;
+}
+
+TEST(Score, MinimalEventFilesAndEventNumbers) {
+  // The least a detector must write: t_detect and link, in any column order, extra columns
+  // ignored.
+  auto events = read_detections(write_temp("minimal.csv", "link,score,t_detect\n2,0.9,10.1\n3,0.5,20.2\n"));
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].link, 2);
+  EXPECT_EQ(events[1].t_detect, 20.2);
+  EXPECT_TRUE(std::isnan(events[0].t_onset_estimate));
+  // Without a kind column, the first row of each event number counts.
+  events = read_detections(write_temp("numbered.csv", "event,t_detect,link\n1,10.1,2\n1,10.1,3\n2,20.2,3\n"));
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].link, 2);
+}
+
+TEST(Score, BadRowsAreReportedAndSkippedOrStopStrictMode) {
+  const std::string path = write_temp("bad.csv", "t_detect,link\n10.1,2\nsoon,3\n20.2,3,7\n30,2\n");
+  std::vector<std::string> warnings;
+  auto previous = set_warning_sink([&](std::string_view m) { warnings.emplace_back(m); });
+  const auto events = read_detections(path);
+  set_warning_sink(previous);
+  EXPECT_EQ(events.size(), 2u);
+  ASSERT_EQ(warnings.size(), 2u);
+  EXPECT_NE(warnings[0].find("bad.csv:3: t_detect 'soon' is not a time"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[1].find("bad.csv:4: 3 fields, the header has 2"), std::string::npos) << warnings[1];
+  EXPECT_THROW(read_detections(path, true), Error);
+  EXPECT_THROW(read_detections(write_temp("nolink.csv", "t_detect,joints\n1,2\n")), Error);
+}
+
+TEST(Score, NoDurationNoRateAndPercentiles) {
+  Truth truth;
+  truth.contacts.push_back({1.0, 1.2, 2, false, NAN});
+  const Score s = score(truth, {}, {});
+  EXPECT_EQ(s.missed, 1);
+  EXPECT_FALSE(s.false_alarms_per_hour.has_value());
+  EXPECT_TRUE(to_json(s)["false_alarms_per_hour"].is_null());
+  // numpy.percentile([1, 2, 3, 4], [50, 95]) = 2.5, 3.85
+  EXPECT_DOUBLE_EQ(percentile({4, 1, 3, 2}, 50), 2.5);
+  EXPECT_NEAR(percentile({4, 1, 3, 2}, 95), 3.85, 1e-12);
+  EXPECT_TRUE(std::isnan(percentile({}, 50)));
+  ScoreOptions bad;
+  bad.window = 0;
+  EXPECT_THROW(score(truth, {}, bad), Error);
+}
+
+}  // namespace
+}  // namespace momentum::eval
