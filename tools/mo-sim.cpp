@@ -2,6 +2,7 @@
 // of collisions; write what its drives would report, and the ground truth.
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -9,6 +10,8 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
+#include "momentum/can/dbc.hpp"
+#include "momentum/sim/candump_output.hpp"
 #include "momentum/sim/run.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -47,6 +50,10 @@ int main(int argc, char** argv) {
   app.add_flag("--line-buffered", line_buffered, "flush every row");
   app.add_option("--truth", truth_path, "write one row per contact (ground truth) to FILE")->type_name("FILE");
   app.add_flag("--with-truth-columns", with_truth, "add true friction and contact torques per joint");
+  bool candump = false;
+  std::string dbc_path;
+  auto* candump_flag = app.add_flag("--candump", candump, "write candump -L text of the drives' frames instead of a stream");
+  app.add_option("--dbc", dbc_path, "how the drives encode their values (with --candump)")->type_name("FILE")->needs(candump_flag);
 
   std::string trajectory = "paper", integrator = "rk4", velocity = "measured", direction = "normal";
   std::optional<double> duration;
@@ -87,6 +94,9 @@ int main(int argc, char** argv) {
   app.add_option("--clamp-stiffness", run.contacts.clamp_stiffness, "clamping obstacle stiffness")->type_name("N/M")->capture_default_str();
 
   return tool.run(argc, argv, [&] {
+    if (candump && dbc_path.empty()) throw cli::UsageError("--candump needs --dbc FILE");
+    if (candump && (with_truth || output_format != "csv"))
+      throw cli::UsageError("--candump writes frames: --with-truth-columns and --output-format do not apply");
     sim::parse_trajectory(trajectory, &run.trajectory.kind);
     sim::parse_integrator(integrator, &run.integrator);
     sim::parse_velocity_source(velocity, &run.sensors.velocity);
@@ -117,14 +127,22 @@ int main(int argc, char** argv) {
       warn(tool.profile() + ": no simulation.friction: simulating a frictionless arm");
     const friction::FrictionModel* friction = section.has_friction && !no_friction ? &section.friction : nullptr;
 
-    stream::WriterOptions writer_options;
-    writer_options.encoding = stream::parse_encoding(output_format);
-    writer_options.line_buffered = line_buffered;
-    auto out = stream::Writer::open(output, writer_options);
-    out->comment(tool.provenance());
-    out->comment(" mo-sim: seed " + std::to_string(tool.seed()) + ", trajectory " + trajectory + ", duration " +
-                 format_number(run.trajectory.duration) + " s, rate " + format_number(run.rate_hz) + " Hz");
-    out->header(sim::sample_columns(model.nq, with_truth));
+    std::unique_ptr<stream::Writer> out;
+    std::optional<can::Database> dbc;
+    std::unique_ptr<sim::CandumpOutput> bus;
+    if (candump) {
+      dbc = can::Database::load(dbc_path);
+      bus = std::make_unique<sim::CandumpOutput>(*dbc, output, model.nq, 1.0 / run.rate_hz);
+    } else {
+      stream::WriterOptions writer_options;
+      writer_options.encoding = stream::parse_encoding(output_format);
+      writer_options.line_buffered = line_buffered;
+      out = stream::Writer::open(output, writer_options);
+      out->comment(tool.provenance());
+      out->comment(" mo-sim: seed " + std::to_string(tool.seed()) + ", trajectory " + trajectory + ", duration " +
+                   format_number(run.trajectory.duration) + " s, rate " + format_number(run.rate_hz) + " Hz");
+      out->header(sim::sample_columns(model.nq, with_truth));
+    }
 
     std::unique_ptr<stream::Writer> truth;
     if (!truth_path.empty()) {
@@ -138,6 +156,10 @@ int main(int argc, char** argv) {
     std::vector<double> row;
     sim::RunCallbacks callbacks;
     callbacks.sample = [&](const sim::Sample& s) {
+      if (bus) {
+        bus->write(s);
+        return;
+      }
       sim::sample_row(s, with_truth, row);
       out->row(row.data());
     };
@@ -152,8 +174,11 @@ int main(int argc, char** argv) {
     };
     const sim::RunSummary summary = sim::simulate(model, friction, section.home, run, tool.seed(), callbacks);
     progress.finish();
-    out->close();
+    if (out) out->close();
+    if (bus) bus->close();
     if (truth) truth->close();
+    if (bus && bus->saturated())
+      warn(std::to_string(bus->saturated()) + " values did not fit their CAN signal and were clamped");
     if (summary.max_tracking_error > 0.1)
       warn("the controller lost track of the trajectory (error up to " + format_number(summary.max_tracking_error) +
            " rad); lower --bandwidth or check the profile's drives");
