@@ -114,16 +114,7 @@ int main(int argc, char** argv) {
         report += detect::format_threshold_changes(old ? &*old : nullptr, r.thresholds);
       }
       std::fwrite(report.data(), 1, report.size(), stdout);
-      for (std::size_t j = 0; j < r.joints.size(); ++j) {
-        const auto& c = r.joints[j];
-        const std::string name = std::string(detect::signal_name(r.thresholds.signal)) + std::to_string(j + 1);
-        if (c.moving_contact)
-          warn(name + ": max " + std::to_string(c.moving.max) + " Nm at " + c.moving.where_max +
-               " looks like a contact, not noise (" + std::to_string(c.moving.max / c.moving.p999) + " x p99.9)");
-        if (c.rest_contact)
-          warn(name + " at rest: max " + std::to_string(c.rest.max) + " Nm at " + c.rest.where_max +
-               " looks like a contact, not noise (" + std::to_string(c.rest.max / c.rest.p999) + " x p99.9)");
-      }
+      for (const auto& w : r.warnings) warn(w);
       contact = contact || r.any_contact();
     }
     std::fflush(stdout);

@@ -66,6 +66,48 @@ double LogHistogram::quantile(double p) const {
   return max_;
 }
 
+// ---- PeakTracker -----------------------------------------------------------------------
+
+void PeakTracker::add_slow(double m, double t) {
+  auto near = [&](const Peak& p) { return p.stream == stream_ && std::fabs(p.t - t) < window_; };
+  std::size_t hit = candidates_.size();
+  for (std::size_t i = 0; i < candidates_.size(); ++i)
+    if (near(candidates_[i])) {
+      hit = i;
+      break;
+    }
+  if (hit < candidates_.size()) {
+    if (m <= candidates_[hit].m) return;
+    candidates_[hit] = Peak{m, t, stream_};
+    // The moved peak may now be near another candidate: keep the larger of the two.
+    for (std::size_t i = 0; i < candidates_.size(); ++i)
+      if (i != hit && near(candidates_[i])) {
+        candidates_.erase(candidates_.begin() + static_cast<std::ptrdiff_t>(i));
+        break;
+      }
+  } else {
+    candidates_.push_back(Peak{m, t, stream_});
+    if (candidates_.size() > kKeep) {
+      auto low = std::min_element(candidates_.begin(), candidates_.end(), [](const Peak& a, const Peak& b) { return a.m < b.m; });
+      candidates_.erase(low);
+    }
+  }
+  smallest_ = INFINITY;
+  for (const auto& p : candidates_) smallest_ = std::min(smallest_, p.m);
+}
+
+double PeakTracker::second() const {
+  if (candidates_.size() < 2) return 0;
+  auto top = std::max_element(candidates_.begin(), candidates_.end(), [](const Peak& a, const Peak& b) { return a.m < b.m; });
+  double second = 0;
+  for (auto it = candidates_.begin(); it != candidates_.end(); ++it) {
+    if (it == top) continue;
+    const bool apart = it->stream != top->stream || std::fabs(it->t - top->t) >= window_;
+    if (apart) second = std::max(second, it->m);
+  }
+  return second;
+}
+
 // ---- MagnitudeStats --------------------------------------------------------------------
 
 MagnitudeSummary MagnitudeStats::summary() const {
@@ -82,6 +124,7 @@ MagnitudeSummary MagnitudeStats::summary() const {
   s.max = max_;
   s.t_max = t_max_;
   s.where_max = where_max_;
+  s.second_peak = peaks_.second();
   return s;
 }
 
@@ -184,6 +227,11 @@ Calibrator::Calibrator(Signal signal, std::size_t joints, CalibrationOptions opt
 
 void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
   streams_.push_back(name);
+  for (auto& J : joints_) {
+    J.moving.begin_stream();
+    J.rest.begin_stream();
+    J.rest_absolute.begin_stream();
+  }
   have_velocity_ = have_velocity_ && have_velocity;
   t_prev_ = kNaN;
   for (auto& J : joints_) J.tracker.reset();
@@ -218,7 +266,8 @@ CalibrationResult Calibrator::result() const {
     if (c.moving.samples == 0 && c.rest.samples == 0)
       throw Error(name + ": no finite sample to calibrate on");
     auto contact = [&](const MagnitudeSummary& s) {
-      return s.samples >= 1000 && s.max > options_.contact_ratio * s.p999;
+      return s.samples >= 1000 &&
+             (s.max > options_.contact_ratio * s.p999 || s.max > options_.contact_ratio * s.second_peak);
     };
     if (c.moving.samples > 0) {
       T.moving = with_margin(c.moving.max);
@@ -232,9 +281,16 @@ CalibrationResult Calibrator::result() const {
                           name + "| at rest");
     }
     if (c.rest.samples >= options_.min_rest_samples) {
-      T.rest = with_margin(c.rest.max);
-      T.rest_band = c.rest.p99;
-      c.rest_contact = contact(c.rest);
+      // Whichever rest statistic needs the lower threshold on these data: the deviation from
+      // the settled baseline (static friction held at rest cancels out), or the plain |x|
+      // (better when the residual moves at rest, e.g. a controller ramping torque against
+      // stiction before breakaway, and the friction model holds the level).
+      const double deviation = with_margin(c.rest.max), absolute = with_margin(c.rest_absolute.max);
+      T.rest_absolute = absolute < deviation;
+      const MagnitudeSummary& chosen = T.rest_absolute ? c.rest_absolute : c.rest;
+      T.rest = T.rest_absolute ? absolute : deviation;
+      T.rest_band = chosen.p99;
+      c.rest_contact = contact(chosen);
     } else if (options_.rest_state && (have_velocity_ || c.rest.samples > 0)) {
       out.notes.push_back("joint " + std::to_string(j + 1) + " rested for " + std::to_string(c.rest.samples) +
                           " rows (fewer than " + std::to_string(options_.min_rest_samples) +
@@ -256,6 +312,14 @@ CalibrationResult Calibrator::result() const {
         }
       }
     }
+    auto warn_contact = [&](const char* state, const MagnitudeSummary& s) {
+      out.warnings.push_back(name + " " + state + ": max " + fmt(s.max) + " Nm at " + s.where_max + " (t=" +
+                             fmt(s.t_max) + " s) is " + fmt(s.max / s.p999, "%.3g") + " times p99.9 and " +
+                             fmt(s.max / s.second_peak, "%.3g") +
+                             " times the largest peak apart from it: looks like a contact, not noise");
+    };
+    if (c.moving_contact) warn_contact("moving", c.moving);
+    if (c.rest_contact) warn_contact(T.rest_absolute ? "at rest" : "at rest (deviation)", T.rest_absolute ? c.rest_absolute : c.rest);
     if (!(T.moving > 0))
       throw Error(name + ": the residual is 0 on every row; a percent margin gives no threshold (use --margin in Nm)");
     out.thresholds.joints.push_back(T);
@@ -288,8 +352,8 @@ std::string format_calibration_report(const CalibrationResult& r) {
       out += line;
     };
     row("moving", c.moving, fmt(T.moving));
-    row("rest", c.rest, T.rest ? fmt(*T.rest) : "-");
-    row("rest_abs", c.rest_absolute, "-");
+    row("rest", c.rest, T.rest && !T.rest_absolute ? fmt(*T.rest) : "-");
+    row("rest_abs", c.rest_absolute, T.rest && T.rest_absolute ? fmt(*T.rest) : "-");
   }
   for (std::size_t j = 0; j < r.joints.size(); ++j) {
     const auto& c = r.joints[j];
@@ -299,16 +363,7 @@ std::string format_calibration_report(const CalibrationResult& r) {
              " |dq| Nm (mean over the moving rows " + fmt(c.envelope_mean) + " Nm, constant " + fmt(T.moving) + " Nm)\n";
   }
   for (const auto& note : r.notes) out += "# note: " + note + "\n";
-  for (std::size_t j = 0; j < r.joints.size(); ++j) {
-    const auto& c = r.joints[j];
-    auto warn_line = [&](const char* state, const MagnitudeSummary& s) {
-      out += "# warning: " + sig + std::to_string(j + 1) + " " + state + ": max " + fmt(s.max) + " Nm at " +
-             s.where_max + " (t=" + fmt(s.t_max) + " s) is " + fmt(s.max / s.p999, "%.3g") +
-             " times p99.9: looks like a contact, not noise\n";
-    };
-    if (c.moving_contact) warn_line("moving", c.moving);
-    if (c.rest_contact) warn_line("rest", c.rest);
-  }
+  for (const auto& warning : r.warnings) out += "# warning: " + warning + "\n";
   return out;
 }
 

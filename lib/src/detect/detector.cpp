@@ -48,7 +48,7 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
     double stat, threshold, band;
     if (state == MotionState::rest) {
       ++J.rest_rows;
-      stat = std::fabs(x[j] - J.tracker.baseline());
+      stat = T.rest_absolute ? std::fabs(x[j]) : std::fabs(x[j] - J.tracker.baseline());
       threshold = *T.rest;
       band = T.rest_band;
     } else {

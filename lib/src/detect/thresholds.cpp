@@ -105,6 +105,10 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
     if (const auto v = item.find("band"); v != item.end()) J.band = number(*v, name + ".band");
     if (const auto v = item.find("rest"); v != item.end() && !v->is_null()) J.rest = number(*v, name + ".rest");
     if (const auto v = item.find("rest_band"); v != item.end()) J.rest_band = number(*v, name + ".rest_band");
+    if (const auto v = item.find("rest_statistic"); v != item.end()) {
+      if (*v == "absolute") J.rest_absolute = true;
+      else if (*v != "deviation") throw fail(name + ".rest_statistic must be \"deviation\" or \"absolute\"");
+    }
     if (const auto v = item.find("envelope"); v != item.end() && !v->is_null()) {
       if (!v->is_object() || !v->contains("a") || !v->contains("b"))
         throw fail(name + ".envelope must be {\"a\": Nm, \"b\": Nm s/rad}");
@@ -128,6 +132,7 @@ nlohmann::json thresholds_to_json(const Thresholds& t) {
     if (J.rest) {
       item["rest"] = *J.rest;
       item["rest_band"] = J.rest_band;
+      item["rest_statistic"] = J.rest_absolute ? "absolute" : "deviation";
     }
     if (J.envelope) item["envelope"] = {{"a", J.envelope->a}, {"b", J.envelope->b}};
     joints.push_back(item);

@@ -39,6 +39,33 @@ class LogHistogram {
   double min_ = INFINITY, max_ = -INFINITY;
 };
 
+// The largest few peaks of a signal that lie at least `window` seconds apart (or in different
+// streams), in constant memory: enough to tell a lone excursion (a contact) from the largest
+// of many similar peaks (noise, friction at every reversal).
+class PeakTracker {
+ public:
+  explicit PeakTracker(double window = 1.0) : window_(window) {}
+  void begin_stream() { ++stream_; }
+  void add(double m, double t) {
+    if (candidates_.size() == kKeep && m <= smallest_) return;
+    add_slow(m, t);
+  }
+  // Largest peak at least `window` away from the largest one (0 when none).
+  double second() const;
+
+ private:
+  static constexpr std::size_t kKeep = 8;
+  struct Peak {
+    double m, t;
+    std::uint64_t stream;
+  };
+  void add_slow(double m, double t);
+  double window_;
+  std::uint64_t stream_ = 0;
+  std::vector<Peak> candidates_;
+  double smallest_ = 0;
+};
+
 // Statistics of |signal| over the rows of one joint in one motion state.
 struct MagnitudeSummary {
   std::uint64_t samples = 0;
@@ -46,14 +73,19 @@ struct MagnitudeSummary {
   double rms = 0, p99 = 0, p999 = 0, max = 0;  // Nm; NaN when no samples
   std::string where_max;  // `file:line` of the row holding the max
   double t_max = 0;       // its time, s
+  // Largest peak at least the peak window (1 s) away from the max, or in another stream; Nm.
+  double second_peak = 0;
 };
 
 // Accumulates a MagnitudeSummary: RMS (compensated sum of squares), quantiles (LogHistogram),
-// max and its place.
+// max and its place, and the peaks apart from it.
 class MagnitudeStats {
  public:
-  // Adds |value| for a row lasting dt seconds. `where` is called only when the value is a new
-  // maximum (it formats a location, which is too slow for every row). NaN values are ignored.
+  // Rows after this belong to a new stream (peaks in different streams are apart).
+  void begin_stream() { peaks_.begin_stream(); }
+  // Adds |value| for a row at time t lasting dt seconds. `where` is called only when the value
+  // is a new maximum (it formats a location, which is too slow for every row). NaN values are
+  // ignored.
   template <class Where>
   void add(double value, double t, double dt, Where&& where) {
     const double m = std::fabs(value);
@@ -66,6 +98,7 @@ class MagnitudeStats {
     compensation_ = (s - squares_) - y;
     squares_ = s;
     histogram_.add(m);
+    peaks_.add(m, t);
     if (m > max_) {
       max_ = m;
       t_max_ = t;
@@ -81,6 +114,7 @@ class MagnitudeStats {
   double max_ = -1, t_max_ = 0;
   std::string where_max_;
   LogHistogram histogram_;
+  PeakTracker peaks_;
 };
 
 // Fits the velocity envelope a + b |dq| of points (|dq|, |x|): the LP
@@ -123,8 +157,9 @@ struct CalibrationOptions {
   // Fit the velocity envelope of the moving rows (needs dq columns).
   bool envelope = false;
   double envelope_bin = 1e-3;  // rad/s
-  // The max looks like a contact, not noise, when it exceeds contact_ratio * p99.9 of the
-  // same joint and state (checked from 1000 samples on).
+  // The max looks like a contact, not noise, when it exceeds contact_ratio times p99.9 of the
+  // same joint and state, or contact_ratio times the largest peak 1 s or more away from it
+  // (a short log where a contact fills the top 0.1%). Checked from 1000 samples on.
   double contact_ratio = 2.0;
   // Fewest rest rows for a rest threshold; with fewer the joint uses its moving threshold.
   std::uint64_t min_rest_samples = 100;
@@ -150,6 +185,8 @@ struct CalibrationResult {
   bool have_velocity = false;
   // Human-readable notes (a joint never at rest, no dq columns, ...), one line each.
   std::vector<std::string> notes;
+  // Maxima that look like a contact (see CalibrationOptions::contact_ratio), one line each.
+  std::vector<std::string> warnings;
   // True when any joint's max looks like a contact.
   bool any_contact() const;
 };

@@ -6,11 +6,12 @@
 //
 //   "thresholds": {
 //     "mu": {
-//       "rest": {"velocity": 0.01, "time": 0.1},          // rad/s, s: the rest rule
+//       "rest": {"velocity": 0.01, "time": 0.5},          // rad/s, s: the rest rule
 //       "margin": {"nm": 0.5},                             // or {"percent": 10}
 //       "joints": [
 //         {"moving": 2.6, "band": 1.1,                     // Nm
 //          "rest": 0.9, "rest_band": 0.3,                  // Nm, optional
+//          "rest_statistic": "deviation",                  // or "absolute"
 //          "envelope": {"a": 1.7, "b": 0.9}},              // Nm, Nm s/rad, optional
 //         ...
 //       ]
@@ -36,7 +37,7 @@ Signal parse_signal(std::string_view name);
 // When a joint counts as at rest: |dq| below `velocity` on every row for at least `time`.
 struct RestRule {
   double velocity = 0.01;  // rad/s (m/s for prismatic joints), > 0
-  double time = 0.1;       // s, >= 0
+  double time = 0.5;       // s, >= 0
   bool IsValid(std::string* why) const;
 };
 
@@ -47,9 +48,12 @@ struct JointThreshold {
   // 99th percentile of |signal| while moving in the calibration data: the usual band, used for
   // the onset estimate. 0 when unknown.
   double band = 0;
-  // Threshold on |signal - baseline| at rest; absent: the joint uses `moving` at rest too.
+  // Threshold at rest on the rest statistic; absent: the joint uses `moving` at rest too.
   std::optional<double> rest;
-  // 99th percentile of |signal - baseline| at rest. 0 when unknown.
+  // The rest statistic: |signal - baseline| (deviation from the mean over the settling time),
+  // or |signal| (absolute). Calibration picks the one with the lower threshold.
+  bool rest_absolute = false;
+  // 99th percentile of the rest statistic at rest. 0 when unknown.
   double rest_band = 0;
   // Velocity-dependent moving threshold a + b |dq| (margin included); a > 0, b >= 0.
   struct Envelope {

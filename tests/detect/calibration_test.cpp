@@ -1,0 +1,344 @@
+// Calibration: quantiles against exact sorted values, the envelope against a brute-force LP,
+// thresholds against max + margin computed here from the same samples, the rest state against
+// a baseline computed independently.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "momentum/detect/calibration.hpp"
+#include "momentum/stream/error.hpp"
+
+using namespace momentum::detect;
+
+namespace {
+
+// Nearest-rank quantile of a sample: the smallest x with at least ceil(p n) values <= x.
+double exact_quantile(std::vector<double> v, double p) {
+  std::sort(v.begin(), v.end());
+  const auto rank = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))));
+  return v[rank - 1];
+}
+
+constexpr double kHalfBin = 0.00115130;  // 10^(0.5/1000) - 1
+
+auto nowhere = [] { return std::string("here"); };
+
+}  // namespace
+
+TEST(LogHistogram, QuantilesMatchSortedValuesWithinHalfABin) {
+  std::mt19937_64 rng(7);
+  std::lognormal_distribution<double> dist(0.0, 1.5);
+  for (int n : {1, 2, 10, 999, 1000, 100000}) {
+    LogHistogram h;
+    std::vector<double> values;
+    for (int i = 0; i < n; ++i) {
+      values.push_back(dist(rng));
+      h.add(values.back());
+    }
+    for (double p : {0.0, 0.01, 0.5, 0.9, 0.99, 0.999, 1.0}) {
+      const double exact = exact_quantile(values, p);
+      EXPECT_NEAR(h.quantile(p), exact, kHalfBin * exact * 1.0001) << "n=" << n << " p=" << p;
+    }
+    EXPECT_EQ(h.quantile(1.0), *std::max_element(values.begin(), values.end()));
+  }
+}
+
+TEST(LogHistogram, ConstantAndTinyValues) {
+  LogHistogram h;
+  for (int i = 0; i < 100; ++i) h.add(2.5);
+  EXPECT_EQ(h.quantile(0.5), 2.5);  // clamped to [min, max]
+  LogHistogram z;
+  z.add(0.0);
+  z.add(0.0);
+  z.add(1e-9);
+  EXPECT_EQ(z.quantile(0.5), 1e-9);  // below the range: min(lowest, max)
+  EXPECT_TRUE(std::isnan(LogHistogram().quantile(0.5)));
+}
+
+TEST(MagnitudeStats, RmsMaxAndWhere) {
+  MagnitudeStats s;
+  std::vector<double> v = {0.5, -3.0, 2.0, -1.0, 2.999};
+  double squares = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    s.add(v[i], 0.1 * static_cast<double>(i), 0.1, [i] { return "f.csv:" + std::to_string(i + 2); });
+    squares += v[i] * v[i];
+  }
+  s.add(std::nan(""), 9, 0.1, nowhere);  // ignored
+  const auto m = s.summary();
+  EXPECT_EQ(m.samples, 5u);
+  EXPECT_NEAR(m.rms, std::sqrt(squares / 5), 1e-15);
+  EXPECT_EQ(m.max, 3.0);
+  EXPECT_EQ(m.where_max, "f.csv:3");
+  EXPECT_DOUBLE_EQ(m.t_max, 0.1);
+  EXPECT_NEAR(m.seconds, 0.5, 1e-12);
+}
+
+namespace {
+
+// The LP  min sum_i (a + b v_i)  s.t.  a + b v_i >= m_i, b >= 0  by brute force: the optimum is
+// at a vertex, i.e. a line through two points, or a horizontal line through one.
+double brute_force_objective(const std::vector<std::pair<double, double>>& points, double* best_a, double* best_b) {
+  double mean_v = 0;
+  for (auto& p : points) mean_v += p.first;
+  mean_v /= static_cast<double>(points.size());
+  double best = INFINITY;
+  auto consider = [&](double a, double b) {
+    if (b < 0) return;
+    for (auto& p : points)
+      if (a + b * p.first < p.second - 1e-9) return;
+    const double level = a + b * mean_v;
+    if (level < best) best = level, *best_a = a, *best_b = b;
+  };
+  for (auto& p : points) consider(p.second, 0);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    for (std::size_t k = i + 1; k < points.size(); ++k) {
+      const double dv = points[k].first - points[i].first;
+      if (dv == 0) continue;
+      const double b = (points[k].second - points[i].second) / dv;
+      consider(points[i].second - b * points[i].first, b);
+    }
+  return best;
+}
+
+}  // namespace
+
+TEST(EnvelopeFitter, CoversEveryPointAndSolvesTheLp) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> speed(0.0, 2.0);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<std::pair<double, double>> points;
+    EnvelopeFitter fine(1e-9);  // bins narrower than any gap: the fitter sees the points as they are
+    EnvelopeFitter coarse(1e-2);
+    const double slope = trial % 4 == 0 ? 0.0 : 0.5 * trial;  // some data with no speed trend
+    for (int i = 0; i < 200; ++i) {
+      const double v = speed(rng), m = std::fabs(0.3 + slope * v * 0.3 + 0.2 * (1 + v) * noise(rng));
+      points.emplace_back(v, m);
+      fine.add(v, m);
+      coarse.add(-v, -m);  // signs do not matter
+    }
+    const auto e = fine.fit();
+    const auto c = coarse.fit();
+    ASSERT_TRUE(e && c);
+    for (auto& p : points) {
+      EXPECT_GE(e->a + e->b * p.first, p.second);
+      EXPECT_GE(c->a + c->b * p.first, p.second);
+    }
+    EXPECT_GE(e->b, 0.0);
+    double a, b;
+    const double optimum = brute_force_objective(points, &a, &b);
+    EXPECT_NEAR(fine.mean_level(*e), optimum, 1e-9 * optimum) << trial;
+    // Coarse bins are conservative: never below the optimum, and close to it.
+    EXPECT_GE(coarse.mean_level(*c), optimum - 1e-9);
+    EXPECT_LE(coarse.mean_level(*c), optimum * 1.05);
+  }
+}
+
+TEST(EnvelopeFitter, RecoversALineUnderWhichAllPointsLie) {
+  EnvelopeFitter f;
+  // Points on 1 + 2 v at v = 0 and v = 1 (the hull's ends), the rest strictly below.
+  f.add(0, 1);
+  f.add(1, 3);
+  for (int i = 1; i < 100; ++i) f.add(i / 100.0, 0.5 + 2 * i / 100.0);
+  const auto e = f.fit();
+  ASSERT_TRUE(e);
+  EXPECT_NEAR(e->a, 1.0, 1e-12);
+  EXPECT_NEAR(e->b, 2.0, 1e-12);
+  EXPECT_FALSE(EnvelopeFitter().fit());
+}
+
+namespace {
+
+struct Rows {
+  std::vector<double> t, x, dq;
+};
+
+void feed(Calibrator& c, const Rows& r, const std::string& name) {
+  c.begin_stream(name, !r.dq.empty());
+  for (std::size_t k = 0; k < r.t.size(); ++k) {
+    const double* dq = r.dq.empty() ? nullptr : &r.dq[k];
+    c.add(r.t[k], &r.x[k], dq, [&] { return name + ":" + std::to_string(k + 2); });
+  }
+}
+
+}  // namespace
+
+TEST(Calibrator, ThresholdIsMaxPlusMarginOverAllStreams) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.4);
+  Rows a, b;
+  std::vector<double> all;
+  for (int k = 0; k < 5000; ++k) {
+    a.t.push_back(k * 0.001), a.x.push_back(noise(rng));
+    b.t.push_back(k * 0.001), b.x.push_back(noise(rng));
+    all.push_back(std::fabs(a.x.back())), all.push_back(std::fabs(b.x.back()));
+  }
+  const double max = *std::max_element(all.begin(), all.end());
+  CalibrationOptions o;
+  o.margin_nm = 0.25;
+  Calibrator nm(Signal::mu, 1, o);
+  feed(nm, a, "a.csv");
+  feed(nm, b, "b.csv");
+  auto r = nm.result();
+  EXPECT_DOUBLE_EQ(r.thresholds.joints[0].moving, max + 0.25);
+  EXPECT_NEAR(r.joints[0].moving.p99, exact_quantile(all, 0.99), kHalfBin * exact_quantile(all, 0.99));
+  EXPECT_NEAR(r.joints[0].moving.p999, exact_quantile(all, 0.999), kHalfBin * exact_quantile(all, 0.999));
+  EXPECT_DOUBLE_EQ(r.thresholds.joints[0].band, r.joints[0].moving.p99);
+  EXPECT_EQ(r.rows, 10000u);
+  EXPECT_FALSE(r.any_contact());
+  // The place of the max.
+  const auto in_a = std::find_if(a.x.begin(), a.x.end(), [&](double x) { return std::fabs(x) == max; });
+  const bool from_a = in_a != a.x.end();
+  const auto& rows = from_a ? a.x : b.x;
+  const auto k = std::find_if(rows.begin(), rows.end(), [&](double x) { return std::fabs(x) == max; }) - rows.begin();
+  EXPECT_EQ(r.joints[0].moving.where_max, std::string(from_a ? "a.csv" : "b.csv") + ":" + std::to_string(k + 2));
+
+  CalibrationOptions p;
+  p.margin_percent = 20;
+  Calibrator percent(Signal::mu, 1, p);
+  feed(percent, a, "a.csv");
+  feed(percent, b, "b.csv");
+  EXPECT_DOUBLE_EQ(percent.result().thresholds.joints[0].moving, max * 1.2);
+}
+
+TEST(Calibrator, LoneExcursionLooksLikeAContact) {
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  Rows r;
+  for (int k = 0; k < 20000; ++k) r.t.push_back(k * 0.001), r.x.push_back(noise(rng));
+  Calibrator clean(Signal::mu, 1, {});
+  feed(clean, r, "clean");
+  EXPECT_FALSE(clean.result().any_contact());
+  for (int k = 12000; k < 12050; ++k) r.x[k] += 6.0 * std::sin(M_PI * (k - 12000) / 50.0);  // a 6 Nm bump
+  Calibrator bumped(Signal::mu, 1, {});
+  feed(bumped, r, "bumped");
+  const auto result = bumped.result();
+  EXPECT_TRUE(result.any_contact());
+  ASSERT_EQ(result.warnings.size(), 1u);
+  EXPECT_NE(result.warnings[0].find("looks like a contact"), std::string::npos);
+  EXPECT_NEAR(result.joints[0].moving.t_max, 12.025, 0.01);
+}
+
+TEST(Calibrator, RestRowsGetTheirOwnThresholdOnTheDeviationFromTheBaseline) {
+  // Moves (dq 0.5) with noise, stops for 2 s holding 3 Nm of static friction with tiny noise,
+  // moves again. At rest the statistic is |x - mean over the settling rows|.
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.2), small(0.0, 0.02);
+  Rows r;
+  const double dt = 1.0 / 1024;
+  for (int k = 0; k < 6144; ++k) {
+    const bool stopped = k >= 2048 && k < 4096;
+    r.t.push_back(k * dt);
+    r.dq.push_back(stopped ? 0.001 : 0.5);
+    r.x.push_back(stopped ? 3.0 + small(rng) : noise(rng));
+  }
+  CalibrationOptions o;
+  o.margin_nm = 0.1;
+  o.rest_rule = RestRule{0.01, 0.25};  // 256 rows
+  Calibrator c(Signal::mu, 1, o);
+  feed(c, r, "s");
+  const auto result = c.result();
+  // Independent reference: settling rows 2048..2304 (t - t0 >= 0.25 at row 2304).
+  double sum = 0;
+  for (int k = 2048; k <= 2304; ++k) sum += r.x[k];
+  const double baseline = sum / 257;
+  double rest_max = 0, moving_max = 0;
+  for (int k = 0; k < 6144; ++k) {
+    const bool rest = k >= 2304 && k < 4096;
+    if (rest) rest_max = std::max(rest_max, std::fabs(r.x[k] - baseline));
+    else moving_max = std::max(moving_max, std::fabs(r.x[k]));
+  }
+  const auto& T = result.thresholds.joints[0];
+  ASSERT_TRUE(T.rest);
+  EXPECT_FALSE(T.rest_absolute);
+  EXPECT_NEAR(*T.rest, rest_max + 0.1, 1e-12);
+  EXPECT_DOUBLE_EQ(T.moving, moving_max + 0.1);  // the settling rows (3 Nm) are moving rows
+  EXPECT_EQ(result.joints[0].rest.samples, 4096u - 2304u);
+  EXPECT_NEAR(result.joints[0].rest_absolute.max, 3.0, 0.1);
+
+  CalibrationOptions off = o;
+  off.rest_state = false;
+  Calibrator blind(Signal::mu, 1, off);
+  feed(blind, r, "s");
+  EXPECT_FALSE(blind.result().thresholds.joints[0].rest);
+}
+
+TEST(Calibrator, PicksTheAbsoluteRestStatisticWhenItIsTighter) {
+  // At rest the residual swings between -0.9 and 0.9 (a controller working against
+  // stiction); the settling mean is 0.9, so the deviation reaches 1.8 while |x| stays under
+  // 0.9: the absolute statistic needs the lower threshold.
+  Rows r;
+  const double dt = 1.0 / 1024;
+  for (int k = 0; k < 4096; ++k) {
+    r.t.push_back(k * dt);
+    r.dq.push_back(0.0);
+    // Settling rows 0..256 at 0.9; afterwards the residual swings between -0.9 and 0.9.
+    r.x.push_back(k <= 256 ? 0.9 : 0.9 * std::cos(2 * M_PI * (k - 256) / 1024.0));
+  }
+  CalibrationOptions o;
+  o.margin_nm = 0.1;
+  o.rest_rule = RestRule{0.01, 0.25};
+  Calibrator c(Signal::mu, 1, o);
+  feed(c, r, "s");
+  const auto result = c.result();
+  const auto& T = result.thresholds.joints[0];
+  ASSERT_TRUE(T.rest);
+  EXPECT_TRUE(T.rest_absolute);  // |x| <= 0.9 beats |x - 0.9| <= 1.8
+  EXPECT_NEAR(*T.rest, 1.0, 1e-12);
+  EXPECT_NEAR(result.joints[0].rest.max, 1.8, 1e-6);
+}
+
+TEST(Calibrator, EnvelopeWithMargin) {
+  Rows r;
+  for (int k = 0; k < 1000; ++k) {
+    r.t.push_back(k * 0.001);
+    const double v = (k % 100) / 50.0;  // 0 .. 1.98 rad/s
+    r.dq.push_back(k % 2 ? v : -v);
+    r.x.push_back((k % 3 ? 0.5 : 1.0) * (1 + 2 * v));  // on or under 1 + 2|dq|
+  }
+  CalibrationOptions o;
+  o.envelope = true;
+  o.margin_percent = 10;
+  o.rest_state = false;
+  Calibrator c(Signal::mu, 1, o);
+  feed(c, r, "s");
+  const auto result = c.result();
+  const auto& T = result.thresholds.joints[0];
+  ASSERT_TRUE(T.envelope);
+  EXPECT_NEAR(T.envelope->a, 1.1, 1e-9);
+  EXPECT_NEAR(T.envelope->b, 2.2, 1e-9);
+  EXPECT_NEAR(T.moving, 1.1 * (1 + 2 * 1.98), 1e-9);
+}
+
+TEST(Calibrator, Errors) {
+  CalibrationOptions bad;
+  bad.margin_percent = -1;
+  EXPECT_THROW(Calibrator(Signal::mu, 1, bad), momentum::Error);
+  EXPECT_THROW(Calibrator(Signal::mu, 0, {}), momentum::Error);
+  Calibrator empty(Signal::mu, 1, {});
+  EXPECT_THROW(empty.result(), momentum::Error);  // no sample
+  Calibrator zero(Signal::mu, 1, {});
+  Rows r{{0, 1}, {0, 0}, {}};
+  feed(zero, r, "z");
+  EXPECT_THROW(zero.result(), momentum::Error);  // all zero with a percent margin
+}
+
+TEST(Calibrator, ReportListsEveryJointAndState) {
+  Rows r;
+  for (int k = 0; k < 3000; ++k) {
+    r.t.push_back(k / 1000.0);
+    r.dq.push_back(k < 1000 ? 0.5 : 0.0);
+    r.x.push_back(k < 1000 ? 0.1 * (k % 7) : 0.25);
+  }
+  Calibrator c(Signal::r, 1, {});
+  feed(c, r, "log.csv");
+  const std::string report = format_calibration_report(c.result());
+  EXPECT_NE(report.find("r      1     moving"), std::string::npos) << report;
+  EXPECT_NE(report.find("r      1     rest  "), std::string::npos) << report;
+  EXPECT_NE(report.find("r      1     rest_abs"), std::string::npos) << report;
+  EXPECT_NE(report.find("log.csv:"), std::string::npos);
+}

@@ -1,0 +1,366 @@
+// The detector state machine on synthetic streams whose answers are known in closed form:
+// steps and pulses injected at known rows, with and without seeded noise.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "momentum/detect/detector.hpp"
+
+using namespace momentum::detect;
+
+namespace {
+
+// 1/1024 s: every row time and every hold or rest time below is exact in binary.
+constexpr double kDt = 1.0 / 1024;
+
+// Rows of an n-joint stream: t = k dt, x from a function of (k, j), dq from another.
+struct Run {
+  std::vector<Event> rows;  // event rows in order, onset and end
+  std::vector<int> links;   // open_link() after each row
+};
+
+template <class X, class V>
+Run run(Detector& d, int rows, X&& x_of, V&& dq_of, bool finish = true) {
+  Run out;
+  const std::size_t n = d.joints();
+  std::vector<double> x(n), dq(n);
+  for (int k = 0; k < rows; ++k) {
+    for (std::size_t j = 0; j < n; ++j) {
+      x[j] = x_of(k, static_cast<int>(j));
+      dq[j] = dq_of(k, static_cast<int>(j));
+    }
+    if (const Event* e = d.step(k * kDt, x.data(), dq.data())) out.rows.push_back(*e);
+    out.links.push_back(d.open_link());
+  }
+  if (finish)
+    if (const Event* e = d.finish(EndReason::eof)) out.rows.push_back(*e);
+  return out;
+}
+
+auto moving = [](int, int) { return 0.5; };
+
+Thresholds constant(std::vector<double> values) {
+  return constant_thresholds(Signal::mu, values, values.size());
+}
+
+}  // namespace
+
+TEST(Detector, StepCrossingGivesExactOnsetAndDetectTimes) {
+  // Joint 2 steps from 0 to 2 x threshold at row 1000: onset and detection on that row.
+  Detector d(constant({1, 1, 1}), {}, false);
+  auto r = run(d, 3000, [](int k, int j) { return j == 1 && k >= 1000 && k < 1500 ? 2.0 : 0.0; }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  const Event& on = r.rows[0];
+  EXPECT_EQ(on.kind, EventKind::onset);
+  EXPECT_DOUBLE_EQ(on.t_onset_estimate, 1000 * kDt);
+  EXPECT_DOUBLE_EQ(on.t_detect, 1000 * kDt);
+  EXPECT_EQ(on.link, 2);
+  EXPECT_EQ(on.joints, std::vector<int>({2}));
+  EXPECT_EQ(on.id, 1u);
+  EXPECT_DOUBLE_EQ(on.peaks[1], 2.0);
+  const Event& end = r.rows[1];
+  EXPECT_EQ(end.kind, EventKind::end);
+  EXPECT_EQ(end.ended_by, EndReason::release);
+  // First quiet row 1500; the default hold of 0.2 s (204.8 rows) closes it on row 1705.
+  EXPECT_DOUBLE_EQ(end.t_end, 1500 * kDt);
+  EXPECT_EQ(r.links[1704], 2);
+  EXPECT_EQ(r.links[1705], 0);
+  EXPECT_EQ(r.links[999], 0);
+  EXPECT_EQ(r.links[1000], 2);
+}
+
+TEST(Detector, MinSamplesDelaysDetectionByExactlyThatManyRows) {
+  for (int m : {1, 2, 5, 8}) {
+    DetectorOptions o;
+    o.min_samples = m;
+    Detector d(constant({1}), o, false);
+    auto r = run(d, 2000, [](int k, int) { return k >= 700 && k < 900 ? 3.0 : 0.0; }, moving);
+    ASSERT_EQ(r.rows.size(), 2u) << m;
+    EXPECT_DOUBLE_EQ(r.rows[0].t_onset_estimate, 700 * kDt) << m;
+    EXPECT_DOUBLE_EQ(r.rows[0].t_detect, (700 + m - 1) * kDt) << m;
+  }
+}
+
+TEST(Detector, MinSamplesIgnoresShorterSpikes) {
+  DetectorOptions o;
+  o.min_samples = 4;
+  Detector d(constant({1}), o, false);
+  // Spikes of 3 rows every 50 rows never fire; one of 4 rows at row 1000 does.
+  auto r = run(d, 2000, [](int k, int) {
+    if (k >= 1000 && k < 1004) return 5.0;
+    return k % 50 < 3 ? 5.0 : 0.0;
+  }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 1003 * kDt);
+}
+
+TEST(Detector, ThresholdIsStrict) {
+  // |x| == threshold does not fire; the next representable value does.
+  Detector d(constant({1}), {}, false);
+  auto r = run(d, 10, [](int k, int) { return k < 5 ? 1.0 : std::nextafter(1.0, 2.0); }, moving);
+  ASSERT_FALSE(r.rows.empty());
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 5 * kDt);
+}
+
+TEST(Detector, NegativeResidualsFireOnMagnitude) {
+  Detector d(constant({1}), {}, false);
+  auto r = run(d, 100, [](int k, int) { return k >= 10 && k < 20 ? -1.5 : 0.0; }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 10 * kDt);
+  EXPECT_DOUBLE_EQ(r.rows[0].peaks[0], 1.5);
+}
+
+TEST(Detector, ReleaseAndHold) {
+  DetectorOptions o;
+  o.release = 0.5;
+  o.hold = 50 * kDt;
+  Detector d(constant({2}), o, false);
+  // Over the threshold on rows 100..199; 1.5 (over 0.5 x 2 = 1, under 2) on 200..229 keeps
+  // the event open; 0.5 from 230 on is quiet, but a blip at rows 260..261 restarts the hold.
+  auto r = run(d, 1000, [](int k, int) {
+    if (k >= 100 && k < 200) return 3.0;
+    if (k >= 200 && k < 230) return 1.5;
+    if (k == 260 || k == 261) return 1.2;
+    return 0.5;
+  }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[1].t_end, 262 * kDt);
+  EXPECT_EQ(r.links[262 + 49], 1);
+  EXPECT_EQ(r.links[262 + 50], 0);  // hold complete on row 312
+}
+
+TEST(Detector, HoldZeroEndsOnTheFirstQuietRow) {
+  DetectorOptions o;
+  o.hold = 0;
+  Detector d(constant({1}), o, false);
+  auto r = run(d, 100, [](int k, int) { return k >= 10 && k < 20 ? 2.0 : 0.0; }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[1].t_end, 20 * kDt);
+  EXPECT_EQ(r.links[19], 1);
+  EXPECT_EQ(r.links[20], 0);
+}
+
+TEST(Detector, IsolationIsTheMostDistalFiredJoint) {
+  // A contact on link 3 of a 4-joint arm moves joints 1..3; joint 3 crosses last.
+  Detector d(constant({1, 1, 1, 1}), {}, false);
+  auto r = run(d, 2000, [](int k, int j) {
+    if (k < 500 || k >= 800) return 0.0;
+    const double ramp = (k - 500) * 0.01;  // crosses 1 after 100 rows
+    const double gain[] = {1.5, 1.2, 0.9, 0.0};
+    return ramp * gain[j];
+  }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  const Event& on = r.rows[0];
+  // Joint 1 crosses first: 0.015 (k - 500) > 1 from k = 567.
+  EXPECT_DOUBLE_EQ(on.t_detect, 567 * kDt);
+  EXPECT_EQ(on.link, 1);
+  EXPECT_EQ(on.joints, std::vector<int>({1}));
+  const Event& end = r.rows[1];
+  EXPECT_EQ(end.link, 3);
+  EXPECT_EQ(end.joints, std::vector<int>({1, 2, 3}));
+  EXPECT_EQ(end.t_detect, on.t_detect);
+  EXPECT_EQ(end.id, on.id);
+  // Peaks: the ramp's last value on row 799 times each gain; joint 4 never moved.
+  EXPECT_NEAR(end.peaks[0], 2.99 * 1.5, 1e-12);
+  EXPECT_NEAR(end.peaks[2], 2.99 * 0.9, 1e-12);
+  EXPECT_EQ(end.peaks[3], 0.0);
+}
+
+TEST(Detector, OnsetEstimateOfARamp) {
+  Detector d(constant({1}), {}, false);
+  // x = (k - 300) / 64 from row 300 (exact in binary): > 0.5 from row 333, > 1 from row 365.
+  auto r = run(d, 1000, [](int k, int) { return k < 300 || k > 600 ? 0.0 : (k - 300) / 64.0; }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_onset_estimate, 333 * kDt);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 365 * kDt);
+}
+
+TEST(Detector, OnsetUsesTheCalibratedBand) {
+  Thresholds t = constant({1});
+  t.joints[0].band = 0.25;  // the usual band from calibration
+  Detector d(t, {}, false);
+  auto r = run(d, 1000, [](int k, int) { return k < 300 || k > 600 ? 0.0 : (k - 300) / 64.0; }, moving);
+  ASSERT_FALSE(r.rows.empty());
+  EXPECT_DOUBLE_EQ(r.rows[0].t_onset_estimate, 317 * kDt);  // (k - 300) / 64 > 0.25 from 317
+  DetectorOptions o;
+  o.onset_band = 0.125;  // --onset-band overrides the profile
+  Detector d2(t, o, false);
+  auto r2 = run(d2, 1000, [](int k, int) { return k < 300 || k > 600 ? 0.0 : (k - 300) / 64.0; }, moving);
+  EXPECT_DOUBLE_EQ(r2.rows[0].t_onset_estimate, 309 * kDt);
+}
+
+TEST(Detector, NoisyStreamWithInjectedPulsesFindsEveryPulseAtItsOnset) {
+  // Gaussian noise (sigma 0.1) on three joints; 20 pulses of 2 Nm on a random link i, felt by
+  // joints 1..i; threshold 0.6 (6 sigma: no false alarm expected in 60000 x 3 samples).
+  std::mt19937_64 rng(42);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  std::uniform_int_distribution<int> link_of(1, 3);
+  struct Pulse {
+    int start, link;
+  };
+  std::vector<Pulse> pulses;
+  for (int p = 0; p < 20; ++p) pulses.push_back({1000 + p * 3000, link_of(rng)});
+  Thresholds t = constant({0.6, 0.6, 0.6});
+  for (auto& J : t.joints) J.band = 0.26;  // about the p99 of |noise|
+  Detector d(t, {}, false);
+  const int rows = 62000;
+  std::vector<double> x(3), dq(3, 0.5);
+  std::vector<Event> onsets, ends;
+  std::vector<std::vector<double>> history(3, std::vector<double>(rows));
+  for (int k = 0; k < rows; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      x[j] = noise(rng);
+      for (const auto& p : pulses)
+        if (k >= p.start && k < p.start + 300 && j < p.link) x[j] += 2.0;
+      history[j][k] = x[j];
+    }
+    if (const Event* e = d.step(k * kDt, x.data(), dq.data())) (e->kind == EventKind::onset ? onsets : ends).push_back(*e);
+  }
+  ASSERT_EQ(onsets.size(), pulses.size());
+  ASSERT_EQ(ends.size(), pulses.size());
+  for (std::size_t p = 0; p < pulses.size(); ++p) {
+    const int start = pulses[p].start;
+    // A 2 Nm step over 0.1 noise crosses 0.6 on its first row.
+    EXPECT_DOUBLE_EQ(onsets[p].t_detect, start * kDt) << p;
+    // The onset is the first row of the out-of-band run: the step row, unless the noise put
+    // the rows just before it out of the band too (computed here from the same samples).
+    int expected = start;
+    while (expected > 0) {
+      bool out = false;
+      for (int j : onsets[p].joints) out = out || std::fabs(history[j - 1][expected - 1]) > 0.26;
+      if (!out) break;
+      --expected;
+    }
+    EXPECT_LE(onsets[p].t_onset_estimate, start * kDt) << p;
+    EXPECT_GE(onsets[p].t_onset_estimate, expected * kDt - 1e-12) << p;
+    EXPECT_EQ(ends[p].link, pulses[p].link) << p;
+  }
+}
+
+TEST(Detector, EndRowAtEndOfInput) {
+  Detector d(constant({1}), {}, false);
+  auto r = run(d, 100, [](int k, int) { return k >= 90 ? 2.0 : 0.0; }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_EQ(r.rows[1].ended_by, EndReason::eof);
+  EXPECT_DOUBLE_EQ(r.rows[1].t_end, 99 * kDt);
+  EXPECT_EQ(d.finish(EndReason::eof), nullptr);  // nothing open any more
+}
+
+TEST(Detector, EventsAreNumberedAndNeverInterleave) {
+  DetectorOptions o;
+  o.hold = 10 * kDt;
+  Detector d(constant({1, 1}), o, false);
+  auto r = run(d, 5000, [](int k, int j) { return (k / 500) % 2 == 1 && j == (k / 1000) % 2 ? 3.0 : 0.0; }, moving);
+  ASSERT_EQ(r.rows.size(), 10u);
+  for (std::size_t i = 0; i < r.rows.size(); ++i) {
+    EXPECT_EQ(r.rows[i].id, i / 2 + 1);
+    EXPECT_EQ(r.rows[i].kind, i % 2 ? EventKind::end : EventKind::onset);
+  }
+  EXPECT_EQ(d.events(), 5u);
+}
+
+TEST(Detector, NanResidualNeitherFiresNorKeepsAnEventOpen) {
+  DetectorOptions o;
+  o.hold = 0;
+  Detector d(constant({1}), o, false);
+  auto r = run(d, 100, [](int k, int) {
+    if (k < 10) return std::nan("");
+    return k < 20 ? 2.0 : std::nan("");
+  }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 10 * kDt);
+  EXPECT_DOUBLE_EQ(r.rows[1].t_end, 20 * kDt);
+}
+
+TEST(Detector, VelocityEnvelopeRaisesTheThresholdWithSpeed) {
+  Thresholds t = constant({10});
+  t.joints[0].envelope = JointThreshold::Envelope{1.0, 2.0};  // 1 + 2 |dq|
+  // |x| = 2: quiet at |dq| = 0.6 (threshold 2.2), fires at |dq| = 0.4 (threshold 1.8).
+  for (bool use : {true, false}) {
+    DetectorOptions o;
+    o.use_envelope = use;
+    Detector d(t, o, true);
+    auto r = run(d, 1000, [](int, int) { return 2.0; }, [](int k, int) { return k < 500 ? -0.6 : 0.4; });
+    if (use) {
+      ASSERT_EQ(r.rows.size(), 2u);
+      EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 500 * kDt);
+    } else {
+      EXPECT_TRUE(r.rows.empty());  // the constant 10 holds
+    }
+  }
+  // Without velocities the constant applies.
+  Detector d(t, {}, false);
+  EXPECT_TRUE(run(d, 100, [](int, int) { return 2.0; }, moving).rows.empty());
+}
+
+namespace {
+Thresholds with_rest(double moving, double rest, bool absolute = false) {
+  Thresholds t = constant({moving});
+  t.rest_rule = RestRule{0.01, 100 * kDt};
+  t.joints[0].rest = rest;
+  t.joints[0].rest_absolute = absolute;
+  return t;
+}
+auto still = [](int, int) { return 0.001; };
+}  // namespace
+
+TEST(Detector, RestStateJudgesTheChangeSinceTheJointSettled) {
+  // At rest from row 0 with the residual at -1.9 Nm (static friction held). Rows 0..100 settle
+  // (t >= 0.1 s at row 100); the baseline is -1.9. A push of +1 Nm at rows 2000..2499 moves
+  // the residual to -0.9: under the moving threshold of 2 in magnitude, but 1 Nm off the
+  // baseline, over the rest threshold of 0.5.
+  Detector d(with_rest(2, 0.5), {}, true);
+  auto r = run(d, 4000, [](int k, int) { return -1.9 + (k >= 2000 && k < 2500 ? 1.0 : 0.0); }, still);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 2000 * kDt);
+  EXPECT_DOUBLE_EQ(r.rows[1].t_end, 2500 * kDt);
+  EXPECT_EQ(d.rest_rows(0), 4000u - 100u);
+  // The same stream judged by the moving rule alone: nothing.
+  Detector blind(constant({2}), {}, true);
+  EXPECT_TRUE(run(blind, 4000, [](int k, int) { return -1.9 + (k >= 2000 && k < 2500 ? 1.0 : 0.0); }, still).rows.empty());
+}
+
+TEST(Detector, RestBaselineIsTheMeanOverTheSettlingRows) {
+  // Settling rows 0..100 alternate 0.4 and 0.6 (51 of 0.4, 50 of 0.6), then the residual sits
+  // at 0.9: 0.9 - baseline = 0.40099... from the exact mean.
+  const double baseline = (51 * 0.4 + 50 * 0.6) / 101;
+  auto x = [](int k, int) { return k <= 100 ? (k % 2 ? 0.6 : 0.4) : 0.9; };
+  Detector quiet(with_rest(5, 0.401), {}, true);
+  EXPECT_TRUE(run(quiet, 1000, x, still).rows.empty());
+  Detector fires(with_rest(5, 0.9 - baseline - 1e-9), {}, true);
+  auto r = run(fires, 1000, x, still);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 101 * kDt);
+}
+
+TEST(Detector, AbsoluteRestStatistic) {
+  // rest_absolute: |x| at rest against the rest threshold (3), the moving one (2) in motion.
+  Detector d(with_rest(2, 3, true), {}, true);
+  auto r = run(d, 4000, [](int k, int) { return k <= 100 ? 0.0 : 2.5; },
+               [](int k, int) { return k < 3000 ? 0.001 : 0.5; });
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 3000 * kDt);  // moving again: 2.5 > 2
+}
+
+TEST(Detector, LeavingRestEndsTheRestRuleAtOnce) {
+  // Baseline 0 at rest; the joint moves from row 1000 with the residual at 1 (under the moving
+  // threshold 2, over the rest threshold 0.5): no event.
+  Detector d(with_rest(2, 0.5), {}, true);
+  EXPECT_TRUE(run(d, 3000, [](int k, int) { return k < 1000 ? 0.0 : 1.0; },
+                  [](int k, int) { return k < 1000 ? 0.0 : 0.3; }).rows.empty());
+}
+
+TEST(Detector, AFiredJointCannotSettleIntoItsContact) {
+  // Moving, a contact of 3 Nm fires at row 500 and stops the joint at row 600; the contact
+  // lasts to row 2000. Were the stopped joint allowed to rest, its baseline would absorb the
+  // contact and the event would end near row 900; it must last to row 2000.
+  Detector d(with_rest(2, 0.5), {}, true);
+  auto r = run(d, 4000, [](int k, int) { return k >= 500 && k < 2000 ? 3.0 : 0.0; },
+               [](int k, int) { return k < 600 ? 0.5 : 0.0; });
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[1].t_end, 2000 * kDt);
+  // After the event the joint settles and rests normally.
+  EXPECT_GT(d.rest_rows(0), 1500u);
+}
