@@ -70,9 +70,9 @@ std::uint64_t line_of_byte(const std::string& text, std::size_t byte) {
 
 const std::vector<std::string>& known_profile_keys() {
   static const std::vector<std::string> keys = {
-      "urdf",     "root",       "tip",        "gravity",  "joints",   "observer",
-      "friction", "thresholds", "provenance", "payloads", "dynamics", "name",
-      "description"};
+      "urdf",     "root",       "tip",      "gravity",    "joints",
+      "observer", "friction",   "thresholds", "provenance", "payloads",
+      "dynamics", "simulation", "name",     "description"};
   return keys;
 }
 

@@ -1,0 +1,106 @@
+#include "momentum/model/describe.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+
+namespace momentum::model {
+
+namespace {
+
+std::string number(double x) {
+  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", x == 0.0 ? 0.0 : x);  // no "-0"
+  return text;
+}
+
+std::string triple(const Eigen::Vector3d& v) {
+  return number(v.x()) + " " + number(v.y()) + " " + number(v.z());
+}
+
+// Roll-pitch-yaw as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll).
+Eigen::Vector3d rpy(const Eigen::Matrix3d& r) {
+  const double pitch = std::atan2(-r(2, 0), std::hypot(r(0, 0), r(1, 0)));
+  double roll = std::atan2(r(2, 1), r(2, 2));
+  double yaw = std::atan2(r(1, 0), r(0, 0));
+  if (std::abs(std::abs(pitch) - M_PI / 2) < 1e-9) {  // gimbal lock: put it all in yaw
+    roll = 0.0;
+    yaw = std::atan2(-r(0, 1), r(1, 1));
+  }
+  return {roll, pitch, yaw};
+}
+
+// Left-aligned columns two spaces apart, each as wide as its widest cell.
+std::string table(const std::vector<std::vector<std::string>>& rows) {
+  std::vector<std::size_t> width;
+  for (const auto& row : rows) {
+    width.resize(std::max(width.size(), row.size()), 0);
+    for (std::size_t c = 0; c < row.size(); ++c) width[c] = std::max(width[c], row[c].size());
+  }
+  std::string out;
+  for (const auto& row : rows) {
+    std::string line;
+    for (std::size_t c = 0; c < row.size(); ++c) {
+      line += row[c];
+      if (c + 1 < row.size()) line.append(width[c] - row[c].size() + 2, ' ');
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
+std::string join(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out.empty() ? "-" : out;
+}
+
+}  // namespace
+
+std::string describe_chain(const Model& model, const Profile& profile) {
+  std::string out;
+  out += "robot      " + model.robot_name + " (" + model.urdf.string() + ")\n";
+  out += "chain      " + model.root + " -> " + model.tip + ", " + std::to_string(model.nq) +
+         " moving joints\n";
+  out += "gravity    " + triple(model.gravity) + " m/s^2\n";
+  out += "profile    " + profile.path.string() + "\n\n";
+
+  std::vector<std::vector<std::string>> joints = {
+      {"j", "joint", "type", "axis", "lower", "upper", "velocity", "effort", "k_i",
+       "rotor_inertia"}};
+  for (int j = 0; j < model.nq; ++j) {
+    const Joint& joint = model.joints[j];
+    joints.push_back({std::to_string(j + 1), joint.name,
+                      joint.type == JointType::prismatic ? "prismatic"
+                      : joint.continuous                 ? "continuous"
+                                                         : "revolute",
+                      triple(joint.axis), number(joint.limits.lower), number(joint.limits.upper),
+                      number(joint.limits.velocity), number(joint.limits.effort),
+                      number(model.k_i[j]), number(model.rotor_inertia[j])});
+  }
+  out += table(joints) + "\n";
+
+  std::vector<std::vector<std::string>> bodies = {
+      {"j", "body", "mass", "com", "principal_inertia", "merged_links"}};
+  for (int j = 0; j < model.nq; ++j) {
+    const Body& body = model.bodies[j];
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(body.inertia,
+                                                                Eigen::EigenvaluesOnly);
+    bodies.push_back({std::to_string(j + 1), body.name, number(body.mass), triple(body.com),
+                      triple(solver.eigenvalues()), join(body.merged_links)});
+  }
+  out += table(bodies) + "\n";
+  out += "total mass " + number(model.total_mass()) + " kg (moving bodies)\n";
+  out += "tip        " + model.tip + " in " + model.bodies.back().name + " frame: xyz " +
+         triple(model.tip_placement.translation) + ", rpy " +
+         triple(rpy(model.tip_placement.rotation)) + "\n";
+  out += "locked     " + join(model.locked_joints) + "\n";
+  return out;
+}
+
+}  // namespace momentum::model

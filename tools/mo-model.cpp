@@ -1,0 +1,62 @@
+// mo-model: print the chain a profile builds, or append the dynamics of each row of a stream
+// (g, beta, p, optionally M and the inverse dynamics).
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <string>
+
+#include "momentum/cli/tool.hpp"
+#include "momentum/model/describe.hpp"
+#include "momentum/model/model.hpp"
+#include "momentum/model/model_stream.hpp"
+#include "momentum/model/profile.hpp"
+#include "momentum/stream/error.hpp"
+
+using namespace momentum;
+
+namespace {
+
+// With no input named, a terminal (or /dev/null) on stdin means "just show me the chain";
+// a pipe or a redirected file is a stream.
+bool stdin_is_a_stream() {
+  struct stat st {};
+  if (::fstat(STDIN_FILENO, &st) != 0) return false;
+  return !S_ISCHR(st.st_mode);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::Tool tool("mo-model", "Show the chain a robot profile builds, and its dynamics along a stream.");
+  tool.add_inputs("input stream with q<j> (dq<j>, ddq<j>); none: the chain, or stdin when it is a pipe or file");
+  tool.add_stream_output();
+  tool.add_profile();
+  bool chain = false;
+  model::ModelStreamOptions options;
+  auto& app = tool.app();
+  app.add_flag("--chain", chain, "print the chain even when an input is given or stdin is a pipe");
+  app.add_flag("--mass-matrix", options.mass_matrix, "append the mass matrix entries m<i>_<k>");
+
+  return tool.run(argc, argv, [&] {
+    if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
+    const model::Profile profile = model::load_profile(tool.profile());
+    const model::Model robot = model::build_model(profile);
+    if (chain || (tool.inputs().empty() && !stdin_is_a_stream())) {
+      const std::string text = model::describe_chain(robot, profile);
+      std::fwrite(text.data(), 1, text.size(), stdout);
+      return cli::kSuccess;
+    }
+    auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front());
+    model::ModelStream annotate(*in, robot, options);
+    auto out = tool.open_output(*in);
+    annotate.run(*out);
+    out->close();
+    if (in->rows_skipped()) {
+      warn(std::to_string(in->rows_skipped()) + " bad row" + (in->rows_skipped() == 1 ? "" : "s") +
+           " skipped");
+      return cli::kFailure;
+    }
+    return cli::kSuccess;
+  });
+}
