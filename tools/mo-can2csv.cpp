@@ -112,12 +112,32 @@ std::size_t format_time(const can::Frame& f, char* out) {
     std::memcpy(out, "nan", 3);
     return 3;
   }
-  const std::int64_t ns = f.time_ns;
+  std::int64_t ns = f.time_ns;
+  std::size_t n = 0;
+  if (ns < 0) {
+    out[n++] = '-';
+    ns = -ns;
+  }
   const bool micro = ns % 1000 == 0;
-  const long long sec = static_cast<long long>(ns / 1000000000);
-  const long long frac = static_cast<long long>(ns % 1000000000);
-  const int n = micro ? std::snprintf(out, 40, "%lld.%06lld", sec, frac / 1000) : std::snprintf(out, 40, "%lld.%09lld", sec, frac);
-  return static_cast<std::size_t>(n);
+  std::int64_t sec = ns / 1000000000, frac = ns % 1000000000;
+  char digits[24];
+  int d = 0;
+  do {
+    digits[d++] = static_cast<char>('0' + sec % 10);
+    sec /= 10;
+  } while (sec > 0);
+  while (d > 0) out[n++] = digits[--d];
+  out[n++] = '.';
+  int width = 9;
+  if (micro) {
+    frac /= 1000;
+    width = 6;
+  }
+  for (int i = width - 1; i >= 0; --i) {
+    out[n + static_cast<std::size_t>(i)] = static_cast<char>('0' + frac % 10);
+    frac /= 10;
+  }
+  return n + static_cast<std::size_t>(width);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
 
 #include "momentum/stream/error.hpp"
@@ -80,13 +81,15 @@ bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer
                  const char*& error) {
   ++p;  // '('
   const char* start = p;
+  // Times are kept in int64 nanoseconds: up to the year 2262.
+  constexpr std::int64_t kMaxSeconds = 9000000000LL;
   std::int64_t seconds = 0;
   while (p < end && is_digit(*p)) {
-    if (p - start >= 18) {
+    seconds = seconds * 10 + (*p - '0');
+    if (seconds > kMaxSeconds) {
       error = "timestamp out of range";
       return false;
     }
-    seconds = seconds * 10 + (*p - '0');
     ++p;
   }
   integer_digits = static_cast<int>(p - start);
@@ -99,7 +102,7 @@ bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer
         !fixed_digits(q, end, 2, day) || q >= end || *q++ != ' ' ||
         !fixed_digits(q, end, 2, hour) || q >= end || *q++ != ':' ||
         !fixed_digits(q, end, 2, minute) || q >= end || *q++ != ':' ||
-        !fixed_digits(q, end, 2, second) || month < 1 || month > 12 || day < 1 || day > 31 ||
+        !fixed_digits(q, end, 2, second) || year < 1970 || year > 2250 || month < 1 || month > 12 || day < 1 || day > 31 ||
         hour > 23 || minute > 59 || second > 60) {
       error = "bad date in timestamp";
       return false;
@@ -642,7 +645,8 @@ void CandumpReader::resolve_time(Frame& frame, const ParsedLine& info) {
     case TimeKind::date:
     case TimeKind::relative:
       if (mode_ == TimestampMode::delta) {
-        running_ns_ += info.stamp_ns;
+        // Saturate rather than wrap on absurd sums of deltas.
+        if (__builtin_add_overflow(running_ns_, info.stamp_ns, &running_ns_)) running_ns_ = INT64_MAX;
         frame.time_ns = running_ns_;
       } else {
         frame.time_ns = info.stamp_ns;

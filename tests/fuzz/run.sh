@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (candump text, DBC) with clang and runs each briefly, seeded
+# with the captures and DBC files of tests/data/can. For CI: bash tests/fuzz/run.sh [SECONDS]
+# (default 20 per target). Exits non-zero when a fuzzer finds a crash, a leak or undefined
+# behaviour; the reproducer is left in the work directory and its path printed.
+set -euo pipefail
+seconds=${1:-20}
+src=$(cd "$(dirname "$0")/../.." && pwd)
+work=${FUZZ_WORK:-$(mktemp -d /tmp/momentum-fuzz.XXXXXX)}
+cxx=${FUZZ_CXX:-$(command -v clang++-14 || command -v clang++ || true)}
+if [[ -z "$cxx" ]]; then
+  echo "fuzz: no clang++ found (apt-get install clang-14)" >&2
+  exit 1
+fi
+mkdir -p "$work"
+flags=(-std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -I"$src/lib/include")
+sources=("$src"/lib/src/can/*.cpp "$src/lib/src/stream/error.cpp")
+status=0
+for target in candump dbc; do
+  echo "fuzz: building $target"
+  "$cxx" "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" -o "$work/fuzz_$target"
+  corpus="$work/corpus_$target"
+  mkdir -p "$corpus"
+  if [[ $target == candump ]]; then
+    cp "$src"/tests/data/can/*.log "$src"/tests/data/can/formats/*.log "$src"/tests/data/can/formats/*.txt "$corpus"/
+  else
+    cp "$src"/tests/data/can/*.dbc "$src"/tests/data/can/formats/*.dbc "$corpus"/
+  fi
+  echo "fuzz: running $target for ${seconds}s"
+  if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 "./fuzz_$target" -max_total_time="$seconds" -max_len=4096 \
+        -print_final_stats=1 -artifact_prefix="$work/${target}-" "$corpus" > "$work/$target.log" 2>&1); then
+    echo "fuzz: $target FAILED; see $work/$target.log and $work/${target}-*" >&2
+    tail -30 "$work/$target.log" >&2
+    status=1
+  else
+    grep -E "stat::number_of_executed_units|Done" "$work/$target.log" | sed "s/^/fuzz: $target: /" || true
+  fi
+done
+exit $status
