@@ -16,6 +16,7 @@ struct Phi {
 
 Phi phi(double kappa) {
   Phi f{};
+  if (kappa == 0.0) return {1.0, 1.0, 0.5, 1.0 / 6};
   if (kappa < 0.5) {
     static constexpr double inv_factorial[] = {
         1.0, 1.0, 1.0 / 2, 1.0 / 6, 1.0 / 24, 1.0 / 120, 1.0 / 720, 1.0 / 5040, 1.0 / 40320,
@@ -23,8 +24,8 @@ Phi phi(double kappa) {
         1.0 / 87178291200.0, 1.0 / 1307674368000.0, 1.0 / 20922789888000.0,
         1.0 / 355687428096000.0, 1.0 / 6402373705728000.0, 1.0 / 121645100408832000.0,
         1.0 / 2432902008176640000.0, 1.0 / 51090942171709440000.0};
-    // Terms beyond n are below 1e-19 of the sum.
-    const int n = kappa < 0.05 ? 10 : 18;
+    // The first omitted term, kappa^(n+1) / (n+1)!, is below 3e-19 of the sum (>= 1/6).
+    const int n = kappa < 0.1 ? 10 : 18;
     const double z = -kappa;
     double f0 = 0, f1 = 0, f2 = 0, f3 = 0;
     for (int j = n; j >= 0; --j) {
@@ -99,7 +100,7 @@ FilterCoefficients discretize(const Gains& gains, double dt) {
   }
   const double kappa1 = k1 * dt, kappa2 = k2 * dt;
   const LowPass lp1 = low_pass(phi(kappa1), kappa1);
-  const LowPass lp2 = low_pass(phi(kappa2), kappa2);
+  const LowPass lp2 = k2 == 0 ? LowPass{1.0, 0.0, 0.0} : low_pass(phi(kappa2), kappa2);
   c.a1 = lp1.a;
   c.b10 = lp1.b0;
   c.b11 = lp1.b1;

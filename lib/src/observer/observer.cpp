@@ -104,7 +104,7 @@ ObserverOptions observer_options_from_json(const nlohmann::json& section,
 }
 
 ResidualObserver::ResidualObserver(std::vector<Gains> gains, const friction::FrictionModel* friction)
-    : gains_(std::move(gains)), state_(gains_.size()) {
+    : gains_(std::move(gains)), coefficients_(gains_.size()), state_(gains_.size()) {
   for (std::size_t j = 0; j < gains_.size(); ++j) {
     same_gains_as_previous_.push_back(j > 0 && gains_[j].k1 == gains_[j - 1].k1 &&
                                       gains_[j].k2 == gains_[j - 1].k2 &&
@@ -142,9 +142,15 @@ void ResidualObserver::step(double dt, const double* p, const double* u, const d
     return;
   }
   const double inv_dt = 1.0 / dt;
-  FilterCoefficients c;
+  // Coefficients depend on the gains and dt only: joints with the gains of the joint before
+  // share them, and a dt equal to the previous one (bit for bit) reuses them.
+  const bool same_dt = dt == coefficients_dt_;
+  coefficients_dt_ = dt;
   for (std::size_t j = 0; j < n; ++j) {
-    if (!same_gains_as_previous_[j]) c = discretize(gains_[j], dt);
+    if (!same_dt) {
+      coefficients_[j] = same_gains_as_previous_[j] ? coefficients_[j - 1] : discretize(gains_[j], dt);
+    }
+    const FilterCoefficients& c = coefficients_[j];
     Joint& s = state_[j];
     // tau_d = u - dp/dt over the interval, with u linear and p linear between the samples.
     const double dp = (p[j] - s.p) * inv_dt;

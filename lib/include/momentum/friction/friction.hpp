@@ -81,7 +81,6 @@ class JointFriction {
   // a log that starts in motion has no start-up transient.
   T step(const T& w_measured, double dt) {
     using std::abs;
-    using std::exp;
     if (!started_) {
       w_ = w_measured;
     } else if (options_.velocity_cutoff_hz > 0) {

@@ -69,13 +69,6 @@ T sign(const T& w) {
   if (w < T(0)) return T(-1);
   return T(0);
 }
-// (1 - exp(-x)) / x for x >= 0, accurate for every x (series near 0 so Jets keep derivatives).
-template <class T>
-T one_minus_exp_over(const T& x) {
-  using std::expm1;
-  if (x < T(1e-4)) return T(1) - x * (T(0.5) - x * (T(1.0 / 6) - x * T(1.0 / 24)));
-  return -expm1(-x) / x;
-}
 }  // namespace detail
 
 // The Stribeck level g(w) = tau_c + (tau_s - tau_c) exp(-(w/w_s)^2), Nm: the sliding friction
@@ -111,10 +104,22 @@ T lugre_step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, 
   const T rate = p.sigma0 * abs(w) / stribeck_level(p, w);  // lambda, 1/s
   T dz;
   if (update == LugreUpdate::exact) {
-    const T decay = exp(-rate * dt);
-    // z(dt) = z e^{-lambda dt} + w (1 - e^{-lambda dt}) / lambda; dz/dt(dt) = (w - lambda z) e^{-lambda dt}.
+    // z(dt) = z e^{-x} + w dt (1 - e^{-x}) / x with x = lambda dt; dz/dt(dt) = (w - lambda z) e^{-x}.
+    // One expm1 gives both e^{-x} (absolute error ~1e-16, which is what z needs) and an accurate
+    // (1 - e^{-x}) / x; a series takes over near x = 0 so that Jets keep their derivatives.
+    const T x = rate * dt;
+    T decay, relaxed;
+    if (x < T(1e-4)) {
+      decay = T(1) - x * (T(1) - x * (T(0.5) - x * T(1.0 / 6)));
+      relaxed = T(1) - x * (T(0.5) - x * (T(1.0 / 6) - x * T(1.0 / 24)));
+    } else {
+      using std::expm1;
+      const T m = expm1(-x);
+      decay = T(1) + m;
+      relaxed = -m / x;
+    }
     dz = (w - rate * z) * decay;
-    z = z * decay + w * dt * detail::one_minus_exp_over(T(rate * dt));
+    z = z * decay + w * dt * relaxed;
   } else {
     dz = (w - rate * z) / (T(1) + rate * dt);
     z = z + dz * dt;

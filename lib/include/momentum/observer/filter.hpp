@@ -86,10 +86,13 @@ class DisturbanceFilter {
       previous_ = x;
       return T(0);
     }
-    const FilterCoefficients c = discretize(gains_, dt);
-    state_.advance(c, previous_, x);
+    if (dt != dt_) {  // a log with a steady rate mostly repeats dt exactly
+      coefficients_ = discretize(gains_, dt);
+      dt_ = dt;
+    }
+    state_.advance(coefficients_, previous_, x);
     previous_ = x;
-    return state_.output(c);
+    return state_.output(coefficients_);
   }
 
   const Gains& gains() const { return gains_; }
@@ -97,6 +100,8 @@ class DisturbanceFilter {
  private:
   Gains gains_;
   FilterState<T> state_;
+  FilterCoefficients coefficients_;
+  double dt_ = -1;  // the dt coefficients_ are for
   T previous_ = T(0);
   bool started_ = false;
 };
