@@ -33,6 +33,7 @@ Detector::Detector(Thresholds thresholds, DetectorOptions options, bool have_vel
   for (auto& J : joints_) J.tracker = RestTracker(thresholds_.rest_rule);
   fires_.assign(joints_.size(), 0);
   quiet_.assign(joints_.size(), 0);
+  bounds_.assign(joints_.size(), Bounds{});
 }
 
 const Event* Detector::step(double t, const double* x, const double* dq) {
@@ -58,6 +59,8 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
         threshold = T.envelope->a + T.envelope->b * std::fabs(v);
       band = T.band;
     }
+    const double centre = state == MotionState::rest && !T.rest_absolute ? J.tracker.baseline() : 0.0;
+    bounds_[j] = Bounds{centre - threshold, centre + threshold, state == MotionState::rest};
     if (options_.onset_band) band = *options_.onset_band * threshold;
     else if (!(band > 0) || band >= threshold) band = 0.5 * threshold;
 

@@ -53,6 +53,16 @@ class Detector {
   std::uint64_t rest_rows(std::size_t j) const { return joints_[j].rest_rows; }
   std::uint64_t rows() const { return rows_; }
 
+  // The acceptance band of joint j (0-based) in signal units on the last row: the joint is
+  // over its threshold when its residual leaves [lower, upper]. Moving: -/+ threshold (the
+  // envelope's value at that row's speed); at rest: baseline -/+ rest threshold, or -/+ rest
+  // threshold for the absolute statistic. For plots.
+  struct Bounds {
+    double lower = 0, upper = 0;
+    bool rest = false;
+  };
+  const Bounds& bounds(std::size_t j) const { return bounds_[j]; }
+
  private:
   struct Joint {
     RestTracker tracker;
@@ -68,6 +78,7 @@ class Detector {
   bool have_velocity_;
   std::vector<Joint> joints_;
   std::vector<char> fires_, quiet_;
+  std::vector<Bounds> bounds_;
   bool open_ = false;
   Event current_;
   Event out_;

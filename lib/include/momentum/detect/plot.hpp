@@ -1,0 +1,92 @@
+#pragma once
+// Figures of residuals against thresholds (mo-plot): one panel per joint and signal, r and mu
+// side by side like the paper's Figures 5 to 7, detected events and true contacts marked,
+// drawn by gnuplot. A log of any length is decimated while it is read, to the minimum and
+// maximum of each time bucket, so peaks survive and memory stays constant.
+
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "momentum/detect/detector.hpp"
+#include "momentum/detect/events.hpp"
+#include "momentum/detect/thresholds.hpp"
+
+namespace momentum::detect {
+
+struct PlotOptions {
+  std::string format = "png";     // "png" or "svg"
+  int width = 1400;               // pixels
+  int panel_height = 220;         // pixels per joint row
+  std::size_t max_points = 2000;  // time buckets per panel, >= 10
+  double from = -INFINITY;        // time window, s
+  double to = INFINITY;
+  std::string title;              // empty: none
+  bool IsValid(std::string* why) const;
+};
+
+// One true contact, as mo-sim's truth file gives it.
+struct TruthContact {
+  double t_onset = 0, t_end = 0;  // s
+  int link = 0;                   // 1..n
+};
+
+// Reads a truth file (a sample stream with columns t_onset, t_end, link; see mo-sim(1)) with
+// stream::Reader. Throws momentum::Error when it cannot be read or lacks a column.
+std::vector<TruthContact> read_truth(const std::string& path);
+
+// The decimated figure data: for each signal and joint, per time bucket, the range of the
+// residual and of the acceptance band that mo-detect applies (Detector::bounds).
+class PlotData {
+ public:
+  // `signals` in panel order (columns); `thresholds[i]` those of signals[i], or nullopt (no
+  // band drawn); `joints` >= 1; `have_velocity`: add() gets dq (rest state, envelopes).
+  PlotData(std::vector<Signal> signals, std::vector<std::optional<Thresholds>> thresholds, std::size_t joints,
+           bool have_velocity, PlotOptions options);
+
+  // One row: time t (s), x[i][j] residual of signal i joint j (Nm), dq[j] (rad/s, or nullptr
+  // without velocities). Rows outside [from, to] only advance the detectors' rest state.
+  void add(double t, const double* const* x, const double* dq);
+
+  std::size_t joints() const { return joints_; }
+  const std::vector<Signal>& signals() const { return signals_; }
+  bool has_band(std::size_t signal) const { return detectors_[signal].has_value(); }
+  std::uint64_t rows() const { return rows_; }
+
+  struct Range {
+    double lo = INFINITY, hi = -INFINITY;
+  };
+  struct Bucket {
+    double t0 = 0, t1 = 0;        // first and last row time, s
+    std::vector<Range> value;     // per (signal, joint): residual min..max
+    // Per (signal, joint): the narrowest acceptance band of the bucket, from the largest lower
+    // bound to the smallest upper bound (-inf..inf when no threshold).
+    std::vector<Range> band;
+  };
+  const std::vector<Bucket>& buckets() const { return buckets_; }
+  std::size_t series(std::size_t signal, std::size_t joint) const { return signal * joints_ + joint; }
+
+ private:
+  void merge_pairs();
+  std::vector<Signal> signals_;
+  std::size_t joints_;
+  bool have_velocity_;
+  PlotOptions options_;
+  std::vector<std::optional<Detector>> detectors_;
+  std::vector<Bucket> buckets_;
+  double width_ = 0;  // current bucket width, s (0: one row per bucket)
+  std::uint64_t rows_ = 0;
+};
+
+// The gnuplot script that draws `data` with `events` (vertical lines at t_detect, labelled with
+// the isolated link) and `truth` (shaded from onset to end) into `output`.
+std::string gnuplot_script(const PlotData& data, const std::vector<Event>& events,
+                           const std::vector<TruthContact>& truth, const std::string& output,
+                           const PlotOptions& options);
+
+// Runs gnuplot on `script`. Throws momentum::Error when gnuplot cannot be run or fails (its
+// own messages go to stderr).
+void run_gnuplot(const std::string& script);
+
+}  // namespace momentum::detect

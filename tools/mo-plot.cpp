@@ -1,0 +1,117 @@
+// mo-plot: residuals against thresholds, events and true contacts, to PNG or SVG via gnuplot.
+#include <cmath>
+#include <cstdio>
+#include <optional>
+
+#include "momentum/cli/tool.hpp"
+#include "momentum/detect/plot.hpp"
+#include "momentum/model/profile.hpp"
+#include "momentum/stream/columns.hpp"
+#include "momentum/stream/error.hpp"
+
+using namespace momentum;
+
+int main(int argc, char** argv) {
+  cli::Tool tool("mo-plot", "Residuals against thresholds, with events and true contacts, to PNG or SVG.");
+  tool.add_inputs("input stream with r<j> and/or mu<j> (- or none: stdin)");
+  tool.add_profile(/*required=*/false);
+  std::string output, format, events_path, truth_path, signals_option;
+  bool script_only = false, strict = false;
+  detect::PlotOptions options;
+  auto& app = tool.app();
+  app.add_option("-o,--output", output, "image file to write (.png or .svg)")->type_name("FILE")->required();
+  app.add_option("--format", format, "png or svg (default: from the file name, else png)")
+      ->check(CLI::IsMember({"png", "svg"}));
+  app.add_option("--events", events_path, "events of mo-detect to mark")->type_name("FILE");
+  app.add_option("--truth", truth_path, "true contacts (mo-sim --truth) to shade")->type_name("FILE");
+  app.add_option("--signal", signals_option, "mu, r or r,mu (default: those the stream has, r first)")
+      ->type_name("LIST");
+  app.add_option("--from", options.from, "start of the time window, s")->type_name("S");
+  app.add_option("--to", options.to, "end of the time window, s")->type_name("S");
+  app.add_option("--title", options.title, "title above the panels")->type_name("TEXT");
+  app.add_option("--width", options.width, "image width in pixels (1400)")->type_name("PX");
+  app.add_option("--panel-height", options.panel_height, "height of one joint's row in pixels (220)")->type_name("PX");
+  app.add_option("--max-points", options.max_points, "time buckets per panel, min and max of each (2000)")
+      ->type_name("N");
+  app.add_flag("--script", script_only, "print the gnuplot script (which draws -o) instead of running it");
+  app.add_flag("--strict", strict, "stop at the first bad row instead of skipping it");
+
+  return tool.run(argc, argv, [&] {
+    if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
+    if (format.empty()) {
+      const bool svg = output.size() > 4 && output.compare(output.size() - 4, 4, ".svg") == 0;
+      format = svg ? "svg" : "png";
+    }
+    options.format = format;
+    std::string why;
+    if (!options.IsValid(&why)) throw cli::UsageError(why);
+
+    stream::ReaderOptions reader_options;
+    reader_options.strict = strict;
+    auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front(), reader_options);
+    const std::size_t it = in->require("t");
+    std::vector<detect::Signal> signals;
+    for (const auto& name : cli::split_list(signals_option)) {
+      try {
+        signals.push_back(detect::parse_signal(name));
+      } catch (const Error& e) {
+        throw cli::UsageError(std::string("--signal: ") + e.what());
+      }
+    }
+    if (signals.empty()) {
+      if (in->find("r1")) signals.push_back(detect::Signal::r);
+      if (in->find("mu1")) signals.push_back(detect::Signal::mu);
+      if (signals.empty()) throw Error(in->name() + ": no r1 or mu1 column (run mo-observe first)");
+    }
+    const std::size_t n = stream::count_joint_columns(in->columns(), detect::signal_name(signals.front()));
+    if (n == 0) throw Error(in->name() + ": missing column '" + std::string(detect::signal_name(signals.front())) + "1'");
+    std::vector<std::vector<std::size_t>> columns;
+    for (auto s : signals)
+      columns.push_back(stream::column_indices(in->columns(), stream::joint_columns(detect::signal_name(s), n), in->name()));
+    std::vector<std::size_t> idq;
+    if (stream::count_joint_columns(in->columns(), "dq") >= n)
+      idq = stream::column_indices(in->columns(), stream::joint_columns("dq", n), in->name());
+
+    std::vector<std::optional<detect::Thresholds>> thresholds(signals.size());
+    if (!tool.profile().empty()) {
+      const auto profile = model::load_profile(tool.profile());
+      for (std::size_t s = 0; s < signals.size(); ++s) {
+        thresholds[s] = detect::thresholds_from_profile(profile.document, signals[s], tool.profile());
+        if (!thresholds[s])
+          warn(tool.profile() + ": no thresholds for " + std::string(detect::signal_name(signals[s])) + ": none drawn");
+      }
+    }
+    std::vector<detect::Event> events;
+    if (!events_path.empty()) events = detect::read_events(events_path);
+    std::vector<detect::TruthContact> truth;
+    if (!truth_path.empty()) truth = detect::read_truth(truth_path);
+
+    detect::PlotData data(signals, thresholds, n, !idq.empty(), options);
+    std::vector<std::vector<double>> x(signals.size(), std::vector<double>(n));
+    std::vector<const double*> rows(signals.size());
+    std::vector<double> dq(n);
+    double t_prev = -INFINITY;
+    while (const double* row = in->next()) {
+      const double t = row[it];
+      if (!(t >= t_prev)) {
+        in->reject_row("time goes backwards");
+        continue;
+      }
+      t_prev = t;
+      for (std::size_t s = 0; s < signals.size(); ++s) {
+        for (std::size_t j = 0; j < n; ++j) x[s][j] = row[columns[s][j]];
+        rows[s] = x[s].data();
+      }
+      for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
+      data.add(t, rows.data(), idq.empty() ? nullptr : dq.data());
+    }
+    if (data.rows() == 0) throw Error(in->name() + ": no rows to plot" + (std::isfinite(options.from) || std::isfinite(options.to) ? " in the time window" : ""));
+    const std::string script = detect::gnuplot_script(data, events, truth, output, options);
+    if (script_only) {
+      if (std::fwrite(script.data(), 1, script.size(), stdout) != script.size()) throw Error("cannot write the script");
+      return cli::kSuccess;
+    }
+    detect::run_gnuplot(script);
+    return cli::kSuccess;
+  });
+}
