@@ -70,6 +70,7 @@ TEST(ResidualObserver, CompensationEqualsFilteredFriction) {
   mo::ResidualObserver observer(gains, &friction);
   mo::DisturbanceFilter<double> f1(gains[0]), f2(gains[1]);
   auto lugre = mf::make_joint_frictions(friction);
+  std::vector<double> ts, w1, r1, mu1;
   double t = 0;
   for (int k = 0; k < 3000; ++k) {
     const double dt = k ? 0.001 * (1 + 0.4 * std::sin(0.7 * k)) : 0.0;
@@ -81,11 +82,20 @@ TEST(ResidualObserver, CompensationEqualsFilteredFriction) {
     observer.step(dt, p, u, dq, r, tau_f, mu);
     const double expected_tau_f[2] = {lugre[0].step(dq[0], dt), lugre[1].step(dq[1], dt)};
     const double filtered[2] = {f1.step(expected_tau_f[0], dt), f2.step(expected_tau_f[1], dt)};
+    ts.push_back(t);
+    w1.push_back(dq[1]);
+    r1.push_back(r[1]);
+    mu1.push_back(mu[1]);
     for (int j = 0; j < 2; ++j) {
       ASSERT_EQ(tau_f[j], expected_tau_f[j]);
       ASSERT_NEAR(mu[j], r[j] - filtered[j], 1e-11 * (1 + std::abs(r[j]))) << "joint " << j + 1 << " k " << k;
     }
   }
+  // The fitter's one-call version gives the same r - mu.
+  std::vector<double> model(ts.size());
+  mo::filtered_friction(friction.kind, friction.joints[1], friction.options, gains[1], ts.data(),
+                        w1.data(), ts.size(), model.data());
+  for (std::size_t k = 0; k < ts.size(); ++k) ASSERT_NEAR(model[k], r1[k] - mu1[k], 1e-11 * (1 + std::abs(r1[k])));
 }
 
 TEST(ObserverOptions, FromJson) {

@@ -14,6 +14,7 @@
 //    of samples whose time does not increase.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -27,6 +28,26 @@
 #include "momentum/observer/filter.hpp"
 
 namespace momentum::observer {
+
+// The model side of the friction fit, in one call: the friction torque of `kind`/`parameters`
+// driven by the velocities w[0..n) at times t[0..n), passed through the observer's filter H(s)
+// with `gains` (the same discretization and the same per-joint evaluator as mo-observe uses),
+// written to out[0..n). On a collision-free log, out matches the observer's r where the model
+// is right, and r - out is exactly what mo-observe writes as mu. Start: out[0] = 0, the friction
+// starting in its steady state, as at every observer (re)start; split logs at restarts (the
+// `restart` column of mo-observe --restart-column) and call this per segment. Times must
+// increase. T is double or ceres::Jet (parameters differentiated; t and w are data).
+template <class T>
+void filtered_friction(friction::Kind kind, const friction::Parameters<T>& parameters,
+                       const friction::Options& options, const Gains& gains, const double* t,
+                       const double* w, std::size_t n, T* out) {
+  friction::JointFriction<T> model(kind, parameters, options);
+  DisturbanceFilter<T> filter(gains);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double dt = k ? t[k] - t[k - 1] : 0.0;
+    out[k] = filter.step(model.step(T(w[k]), dt), dt);
+  }
+}
 
 // Observer settings, from the profile's "observer" section and the command line.
 struct ObserverOptions {
