@@ -31,9 +31,9 @@ int main(int argc, char** argv) {
       ->type_name("RAD/S");
   app.add_option("--rest-velocity", options.rest_rule.velocity, "a joint rests below this |dq|, rad/s (0.01)")
       ->type_name("RAD/S");
-  app.add_option("--rest-time", options.rest_rule.time, "... held for this long, s (0.1)")->type_name("SECONDS");
+  app.add_option("--rest-time", options.rest_rule.time, "... held for this long, s (0.5)")->type_name("SECONDS");
   app.add_flag("--no-rest", no_rest, "no rest state: one threshold per joint for all rows");
-  app.add_option("--contact-ratio", options.contact_ratio, "a max over RATIO x p99.9 looks like a contact (2)")
+  app.add_option("--contact-ratio", options.contact_ratio, "a max over RATIO x p99.9, or x the next peak, looks like a contact (2)")
       ->type_name("RATIO");
   app.add_flag("--reject-contact", reject_contact, "fail, writing nothing, when a max looks like a contact");
   app.add_flag("-n,--dry-run", dry_run, "print the report, do not write the profile");
