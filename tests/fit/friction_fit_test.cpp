@@ -40,8 +40,8 @@ std::string describe(const fit::ModelFit& m) {
   for (int i = 0; i < fit::kParameterCount; ++i) {
     const auto& e = m.estimates[static_cast<std::size_t>(i)];
     if (!e.used) continue;
-    std::snprintf(line, sizeof line, "  %-6s %12.6g +- %-10.3g %s\n", mf::kParameterNames[i], e.value,
-                  e.standard_error, e.note.c_str());
+    std::snprintf(line, sizeof line, "  %-6s %12.6g +- %-10.3g shift %-10.3g %s\n", mf::kParameterNames[i],
+                  e.value, e.standard_error, e.discretization_shift, e.note.c_str());
     out += line;
   }
   return out;
@@ -301,7 +301,7 @@ TEST(FrictionFit, NoReversalMeansNoBristleParameters) {
     s.t.push_back(t);
     s.dq.push_back(w);
     s.r.push_back(h.step(f.step(w, 0.008), 0.008) + noise);
-    s.restart.push_back(k == 0);
+    s.restart.push_back(k == 0 ? 2 : 0);
     s.scored.push_back(1);
   }
   const auto r = fit::fit_joint(s, kFirstOrder, quick_options(), 8);

@@ -86,7 +86,7 @@ inline Synthetic make_synthetic(const friction::Parameters<double>& truth,
     s.series.t.push_back(t);
     s.series.dq.push_back(w + (o.dq_noise > 0 ? o.dq_noise * normal() : 0.0));
     s.series.r.push_back(r + (o.r_noise > 0 ? o.r_noise * normal() : 0.0));
-    s.series.restart.push_back(k == 0 || k == o.restart_at ? 1 : 0);
+    s.series.restart.push_back(k == 0 ? 2 : (k == o.restart_at ? 1 : 0));
     s.series.scored.push_back(1);
   }
   return s;

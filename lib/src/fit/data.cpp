@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -35,6 +36,51 @@ bool SelectOptions::is_valid(std::string* why) const {
     if (j < 1) return fail("joint numbers start at 1");
   if (!(gap_factor > 1)) return fail("gap factor must be > 1");
   return true;
+}
+
+void append_series(JointSeries& into, const JointSeries& more) {
+  if (more.size() == 0) return;
+  if (into.size() == 0) {
+    into = more;
+    return;
+  }
+  double step = into.median_dt();
+  if (!(step > 0)) step = more.median_dt();
+  if (!(step > 0)) step = 1.0;
+  const double shift = into.t.back() + step - more.t.front();
+  for (std::size_t k = 0; k < more.size(); ++k) {
+    into.t.push_back(more.t[k] + shift);
+    into.dq.push_back(more.dq[k]);
+    into.r.push_back(more.r[k]);
+    into.restart.push_back(k == 0 ? 2 : more.restart[k]);
+    into.scored.push_back(more.scored[k]);
+  }
+  if (into.source != more.source) into.source += ", " + more.source;
+}
+
+double estimate_velocity_noise(const JointSeries& s) {
+  if (s.size() < 3) return 0;
+  std::vector<double> d2;
+  d2.reserve(s.size() - 2);
+  for (std::size_t k = 1; k + 1 < s.size(); ++k)
+    if (s.restart[k] < 2 && s.restart[k + 1] < 2) d2.push_back(std::abs(s.dq[k + 1] - 2 * s.dq[k] + s.dq[k - 1]));
+  if (d2.empty()) return 0;
+  auto mid = d2.begin() + static_cast<std::ptrdiff_t>(d2.size() / 2);
+  std::nth_element(d2.begin(), mid, d2.end());
+  return *mid / 0.6744897501960817 / std::sqrt(6.0);
+}
+
+std::size_t exclude_slow_samples(JointSeries& s, double min_speed, double settle) {
+  std::size_t removed = 0;
+  double last_slow = -std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    if (std::abs(s.dq[k]) < min_speed) last_slow = s.t[k];
+    if (s.t[k] - last_slow <= settle && s.scored[k]) {
+      s.scored[k] = 0;
+      ++removed;
+    }
+  }
+  return removed;
 }
 
 std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& options) {
@@ -89,7 +135,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       s.t.push_back(t);
       s.dq.push_back(dq);
       s.r.push_back(r);
-      s.restart.push_back(pending[i] || restart_row ? 1 : 0);
+      s.restart.push_back(s.t.size() == 1 ? 2 : (pending[i] || restart_row ? 1 : 0));
       s.scored.push_back(counts ? 1 : 0);
       pending[i] = 0;
     }
@@ -98,7 +144,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
     // Gaps restart the observer; mark them so the model's filter restarts too.
     const double limit = options.gap_factor * s.median_dt();
     for (std::size_t k = 1; k < s.size(); ++k)
-      if (s.t[k] - s.t[k - 1] > limit) s.restart[k] = 1;
+      if (s.t[k] - s.t[k - 1] > limit && s.restart[k] == 0) s.restart[k] = 1;
     if (s.scored_count() == 0)
       throw Error(in.name() + ": joint " + std::to_string(s.joint) +
                   ": no sample left to fit (check --skip and --window against the stream's time)");

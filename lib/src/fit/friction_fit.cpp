@@ -163,14 +163,26 @@ struct Problem {
   // advanced with its own state type and coefficients (exactly DisturbanceFilter::step, with
   // the coefficients computed once instead of per call), restarted at rest where the
   // observer restarted.
+  // With substeps > 1 the friction model is advanced in that many equal steps per interval,
+  // the velocity interpolated linearly between the samples (a finer discretisation of the
+  // same model, used to measure how much the estimate depends on sub-sample dynamics).
   template <class T, class Sink>
-  void simulate(const friction::Parameters<T>& p, Sink&& sink) const {
+  void simulate(const friction::Parameters<T>& p, Sink&& sink, int substeps = 1) const {
     friction::JointFriction<T> model(kind, p, friction);
     observer::FilterState<T> filter;
     T previous = T(0);
     const auto& d = *data;
     for (std::size_t k = 0; k < d.size(); ++k) {
-      const T tau = model.step(T(d.dq[k]), dt[k]);
+      if (d.restart[k] >= 2) model.reset();
+      T tau;
+      if (substeps > 1 && d.restart[k] < 2) {
+        for (int s = 1; s <= substeps; ++s) {
+          const double f = static_cast<double>(s) / substeps;
+          tau = model.step(T(d.dq[k - 1] + f * (d.dq[k] - d.dq[k - 1])), dt[k] / substeps);
+        }
+      } else {
+        tau = model.step(T(d.dq[k]), dt[k]);
+      }
       if (d.restart[k]) {
         filter.reset();
         previous = tau;
@@ -462,6 +474,36 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     fit.covariance_note = "the Jacobian could not be evaluated";
   }
 
+  // Sensitivity to sub-sample dynamics: the first-order parameter shift that makes the model
+  // follow its own finer discretisation, dx = lstsq(J, y_fine - y) over the determined
+  // parameters (J is d(r - y)/dx, so a change dy of the model is absorbed by J dx = dy).
+  std::vector<double> shift(nfree, std::numeric_limits<double>::quiet_NaN());
+  if (jacobian.rows() > 0 && jacobian.allFinite()) {
+    const auto& d = *problem.data;
+    std::vector<double> coarse, fine;
+    problem.simulate(fit.parameters, [&](std::size_t k, double y, double) {
+      if (d.scored[k]) coarse.push_back(y);
+    });
+    problem.simulate(fit.parameters, [&](std::size_t k, double y, double) {
+      if (d.scored[k]) fine.push_back(y);
+    }, 4);
+    std::vector<Eigen::Index> keep;
+    for (std::size_t j = 0; j < nfree; ++j)
+      if (!held[j]) keep.push_back(static_cast<Eigen::Index>(j));
+    if (!keep.empty() && coarse.size() == static_cast<std::size_t>(jacobian.rows())) {
+      Eigen::MatrixXd sub(jacobian.rows(), static_cast<Eigen::Index>(keep.size()));
+      for (std::size_t c = 0; c < keep.size(); ++c) sub.col(static_cast<Eigen::Index>(c)) = jacobian.col(keep[c]);
+      Eigen::VectorXd dy(jacobian.rows());
+      for (Eigen::Index k = 0; k < dy.size(); ++k)
+        dy(k) = fine[static_cast<std::size_t>(k)] - coarse[static_cast<std::size_t>(k)];
+      const Eigen::VectorXd dx = sub.colPivHouseholderQr().solve(dy);
+      for (std::size_t c = 0; c < keep.size(); ++c) {
+        const auto j = static_cast<std::size_t>(keep[c]);
+        shift[j] = dx(static_cast<Eigen::Index>(c)) * problem.scale[static_cast<std::size_t>(problem.free[j])];
+      }
+    }
+  }
+
   fit.correlation = Eigen::MatrixXd::Constant(static_cast<Eigen::Index>(nfree), static_cast<Eigen::Index>(nfree),
                                               std::numeric_limits<double>::quiet_NaN());
   std::vector<double> standard_error(nfree, std::numeric_limits<double>::quiet_NaN());
@@ -541,6 +583,8 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     auto& e = fit.estimates[u];
     e.free = true;
     e.standard_error = standard_error[j];
+    e.discretization_shift = shift[j];
+    e.uncertainty = std::isfinite(shift[j]) ? std::hypot(e.standard_error, shift[j]) : e.standard_error;
     const double lo = options.bounds.lower[u], hi = options.bounds.upper[u];
     const double near = 1e-6 * (hi - lo);
     if (e.value <= lo + near) e.at_bound = -1;
@@ -555,11 +599,16 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     } else if (!fit.covariance_ok) {
       e.identifiable = false;
       note = "no standard error: " + fit.covariance_note;
-    } else if (!(e.standard_error <= options.identifiability_threshold * reference)) {
+    } else if (!(e.uncertainty <= options.identifiability_threshold * reference)) {
       e.identifiable = false;
-      note = "not identifiable: standard error " +
-             (reference > 0 ? format("%.3g%%", 100.0 * e.standard_error / reference) : std::string("large")) +
-             " of " + (reference == std::abs(e.value) ? "the value" : "the bound interval");
+      note = "not identifiable: uncertainty " + format("%.3g", e.uncertainty) +
+             (reference > 0 ? format(" = %.3g%% of ", 100.0 * e.uncertainty / reference) +
+                                  (reference == std::abs(e.value) ? "the value" : "the bound interval")
+                            : std::string(" at a value of 0"));
+      const bool sub_sample = std::abs(e.discretization_shift) > e.standard_error;
+      note += sub_sample ? format(", mostly from dynamics faster than the %.4g Hz sampling",
+                                  1.0 / std::max(data.median_dt(), 1e-12))
+                         : std::string(", mostly from noise");
       const std::string why = explain(problem, fit, i);
       if (!why.empty()) note += "; " + why;
     }
@@ -567,7 +616,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       const std::string where = e.at_bound < 0 ? "lower" : "upper";
       const std::string bound_note = "at its " + where + " bound " +
                                      format("%.6g", e.at_bound < 0 ? lo : hi) +
-                                     " (the data pull beyond it; widen --bounds to check)";
+                                     " (the best fit is on or beyond it; widen --bounds to see)";
       note = note.empty() ? bound_note : bound_note + "; " + note;
     }
     e.note = note;

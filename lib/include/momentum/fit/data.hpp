@@ -18,9 +18,10 @@ struct JointSeries {
   std::vector<double> t;               // s, strictly increasing
   std::vector<double> dq;              // measured velocity, rad/s
   std::vector<double> r;               // observer residual, Nm
-  // 1 where the observer started or restarted (first sample, after a gap, after invalid
-  // rows, or where the stream's `restart` column says so): the model's filter starts at rest
-  // there, as the observer's does. The friction state carries on across a gap.
+  // 1 where the observer started or restarted (after a gap, after invalid rows, or where the
+  // stream's `restart` column says so): the model's filter starts at rest there, as the
+  // observer's does, while the friction state carries on. 2 where a log starts (the first
+  // sample, and each log appended): the friction model starts afresh too.
   std::vector<std::uint8_t> restart;
   std::vector<std::uint8_t> scored;    // 1 where the sample counts in the cost and the metrics
   std::string source;                  // the input's name, for messages
@@ -45,6 +46,24 @@ struct SelectOptions {
   // gap_factor <= 1.
   bool is_valid(std::string* why) const;
 };
+
+// Appends `more` (the same joint from another log) to `into`: its times are shifted to follow
+// on one median step after the last sample, and its first sample restarts everything.
+void append_series(JointSeries& into, const JointSeries& more);
+
+// Stops counting samples where the measured speed is below `min_speed` (rad/s, > 0), and the
+// `settle` seconds after each of them (the observer filter's memory: about 3 / K1).
+// At standstill and at slow reversals a joint sticks: its friction is set by the presliding
+// displacement, which a measured velocity of noise around zero cannot resolve, so the model
+// driven by it cannot follow and those samples would bias the sliding parameters. The model
+// still runs through them. Returns the number of counted samples removed.
+std::size_t exclude_slow_samples(JointSeries& series, double min_speed, double settle);
+
+// Standard deviation of the white noise on the measured velocity, rad/s, estimated from the
+// second differences of dq (robustly: median absolute value / 0.6745 / sqrt(6)); a smooth
+// motion contributes its third derivative times dt^2, negligible at usual rates. 0 with fewer
+// than three samples.
+double estimate_velocity_noise(const JointSeries& series);
 
 // Reads the whole stream: columns t, dq<j>, r<j> (and `restart` when present). Rows whose time
 // does not increase are rejected through Reader::reject_row (skipped, or an error with

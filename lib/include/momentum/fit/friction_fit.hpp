@@ -75,8 +75,9 @@ struct FitOptions {
   PolishOptions polish;
   // Also fit the static Stribeck model and report it beside LuGre (LuGre fits only).
   bool compare_static = true;
-  // A free parameter whose standard error exceeds this fraction of its value is flagged as
-  // not identifiable. > 0.
+  // A free parameter whose uncertainty (ParameterEstimate::uncertainty) exceeds this fraction
+  // of its value, or of its bound interval when that is smaller, is flagged as not
+  // identifiable. > 0.
   double identifiability_threshold = 0.5;
 
   // False (reason in `why`) for invalid nested options, a bound pair that is not finite with
@@ -103,6 +104,14 @@ struct ParameterEstimate {
   // Standard error (same unit as the value); NaN when not free or when the covariance could
   // not be computed.
   double standard_error = std::numeric_limits<double>::quiet_NaN();
+  // How far the estimate moves (same unit, first order) when the model resolves the motion
+  // within each sample interval (4 sub-steps, velocity interpolated) instead of once per
+  // sample: the part of the parameter that rests on dynamics faster than the sample rate
+  // (LuGre's bristles at a coarse rate). NaN when not free or not computed.
+  double discretization_shift = std::numeric_limits<double>::quiet_NaN();
+  // sqrt(standard_error^2 + discretization_shift^2): the one-sigma uncertainty the report
+  // quotes and the identifiability test uses. NaN when the standard error is.
+  double uncertainty = std::numeric_limits<double>::quiet_NaN();
   int at_bound = 0;             // -1 at the lower bound, +1 at the upper bound, 0 inside
   bool identifiable = true;     // false: flagged, see `note`
   std::string note;             // why it is flagged (empty when it is not)

@@ -1,0 +1,300 @@
+#include "momentum/fit/report.hpp"
+
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/version.hpp"
+
+namespace momentum::fit {
+
+namespace {
+
+using nlohmann::json;
+
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json metrics_json(const FitMetrics& m) {
+  return {{"samples", m.samples}, {"rms", number(m.rms)}, {"max_abs", number(m.max_abs)},
+          {"r_squared", number(m.r_squared)}, {"cost", number(m.cost)}};
+}
+
+json model_json(const ModelFit& m) {
+  json out;
+  out["model"] = friction::kind_name(m.kind);
+  json parameters = json::object();
+  for (int i = 0; i < kParameterCount; ++i) {
+    const auto& e = m.estimates[static_cast<std::size_t>(i)];
+    if (!e.used) continue;
+    parameters[friction::kParameterNames[i]] = {
+        {"value", number(e.value)},
+        {"standard_error", number(e.standard_error)},
+        {"uncertainty", number(e.uncertainty)},
+        {"discretization_shift", number(e.discretization_shift)},
+        {"free", e.free},
+        {"at_bound", e.at_bound < 0 ? json("lower") : e.at_bound > 0 ? json("upper") : json(nullptr)},
+        {"identifiable", e.identifiable},
+        {"note", e.note}};
+  }
+  out["parameters"] = parameters;
+  json names = json::array();
+  for (int i : m.free) names.push_back(friction::kParameterNames[i]);
+  json matrix = json::array();
+  for (Eigen::Index a = 0; a < m.correlation.rows(); ++a) {
+    json row = json::array();
+    for (Eigen::Index b = 0; b < m.correlation.cols(); ++b) row.push_back(number(m.correlation(a, b)));
+    matrix.push_back(row);
+  }
+  out["correlation"] = {{"parameters", names}, {"matrix", matrix}};
+  out["metrics"] = metrics_json(m.metrics);
+  out["evaluations"] = m.evaluations;
+  out["seconds"] = m.seconds;
+  out["global"] = {{"cost", number(m.global.cost)},
+                   {"rms", number(m.global_metrics.rms)},
+                   {"evaluations", m.global.evaluations},
+                   {"generations", m.global.generations},
+                   {"runs", m.global.runs},
+                   {"seconds", m.global.seconds},
+                   {"message", m.global.message}};
+  out["polish"] = {{"iterations", m.polish_iterations},
+                   {"residual_evaluations", m.polish_residual_evaluations},
+                   {"jacobian_evaluations", m.polish_jacobian_evaluations},
+                   {"message", m.polish_message}};
+  out["covariance"] = {{"ok", m.covariance_ok},
+                       {"condition_number", number(m.condition_number)},
+                       {"autocorrelation_factor", number(m.autocorrelation_factor)},
+                       {"note", m.covariance_note}};
+  return out;
+}
+
+std::string printf_string(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+std::string printf_string(const char* fmt, ...) {
+  char buffer[1024];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buffer, sizeof buffer, fmt, args);
+  va_end(args);
+  return buffer;
+}
+
+std::string metrics_line(const FitMetrics& m) {
+  return printf_string("rms %.4g Nm  max %.4g Nm  R^2 %.6f", m.rms, m.max_abs, m.r_squared);
+}
+
+void append_parameters(std::string& out, const ModelFit& m, const char* indent) {
+  for (int i = 0; i < kParameterCount; ++i) {
+    const auto& e = m.estimates[static_cast<std::size_t>(i)];
+    if (!e.used) continue;
+    std::string se;
+    if (!e.free)
+      se = "(fixed)";
+    else if (!std::isfinite(e.uncertainty))
+      se = "+- ?";
+    else if (m.kind == friction::Kind::lugre && std::isfinite(e.discretization_shift))
+      se = printf_string("+- %-9.3g (noise %.3g, sub-sample %.3g)", e.uncertainty, e.standard_error,
+                         std::abs(e.discretization_shift));
+    else
+      se = printf_string("+- %.3g", e.uncertainty);
+    out += printf_string("%s%-7s %-12.6g ", indent, friction::kParameterNames[i], e.value);
+    out += e.note.empty() ? se : printf_string("%-44s", se.c_str());
+    if (!e.note.empty()) out += "  " + e.note;
+    out += '\n';
+  }
+}
+
+}  // namespace
+
+json report_json(const FitReport& r) {
+  json out;
+  out["tool"] = "mo-lugre-fit";
+  out["version"] = kVersion;
+  out["inputs"] = r.inputs;
+  out["profile"] = r.profile;
+  out["model"] = friction::kind_name(r.options.kind);
+  const auto& g = r.options.global;
+  out["search"] = {{"method", method_name(g.method)},
+                   {"population", g.genetic.population},
+                   {"generations", g.genetic.generations},
+                   {"crossover", g.genetic.crossover},
+                   {"mutation", g.genetic.mutation},
+                   {"elite", g.genetic.elite},
+                   {"restarts", g.genetic.restarts},
+                   {"stall_generations", g.genetic.stall_generations},
+                   {"seed", g.genetic.seed},
+                   {"polish", r.options.polish.enabled}};
+  json bounds = json::object();
+  for (int i = 0; i < kParameterCount; ++i)
+    bounds[friction::kParameterNames[i]] = {r.options.bounds.lower[static_cast<std::size_t>(i)],
+                                            r.options.bounds.upper[static_cast<std::size_t>(i)]};
+  out["bounds"] = bounds;
+  out["observer_order"] = r.observer_order;
+  json joints = json::array();
+  for (const auto& j : r.joints) {
+    json entry;
+    entry["joint"] = j.fit.joint;
+    entry["sample_rate_hz"] = number(j.sample_rate_hz);
+    entry["velocity_noise"] = number(j.velocity_noise);
+    entry["min_speed"] = number(j.min_speed);
+    entry["excluded_slow_samples"] = j.excluded_slow;
+    entry["observer_gains"] = {{"k1", j.gains.k1}, {"k2", j.gains.k2}, {"k3", j.gains.k3}};
+    entry["fit"] = model_json(j.fit.model);
+    entry["static"] = j.fit.static_model ? model_json(*j.fit.static_model) : json(nullptr);
+    if (j.current)
+      entry["current"] = {{"model", friction::kind_name(*j.current_kind)}, {"metrics", metrics_json(*j.current)}};
+    else
+      entry["current"] = nullptr;
+    if (j.mirror) {
+      entry["mirror"] = {{"samples", j.mirror->samples}, {"rms", number(j.mirror->rms)}, {"max_abs", number(j.mirror->max_abs)}};
+      if (j.mirror_static)
+        entry["mirror"]["static_rms"] = number(j.mirror_static->rms);
+    }
+    entry["seconds"] = j.fit.seconds;
+    joints.push_back(entry);
+  }
+  out["joints"] = joints;
+  if (!r.mirror_logs.empty())
+    out["mirror"] = {{"logs", r.mirror_logs}, {"max_position_mismatch", r.mirror_position_mismatch}};
+  out["seconds"] = r.seconds;
+  out["outcome"] = r.outcome;
+  return out;
+}
+
+std::string report_text(const FitReport& r) {
+  std::string out;
+  const auto& g = r.options.global;
+  out += printf_string("mo-lugre-fit: %s, %zu joint%s, search %s", friction::kind_name(r.options.kind),
+                       r.joints.size(), r.joints.size() == 1 ? "" : "s", method_name(g.method));
+  if (g.method == GlobalMethod::ga)
+    out += printf_string(" (population %d, %d generations, %d run%s)", g.genetic.population,
+                         g.genetic.generations, g.genetic.restarts, g.genetic.restarts == 1 ? "" : "s");
+  out += r.options.polish.enabled ? " + Ceres polish" : ", no polish";
+  out += printf_string(", seed %llu, %.3f s\n", static_cast<unsigned long long>(g.genetic.seed), r.seconds);
+  for (const auto& j : r.joints) {
+    const auto& m = j.fit.model;
+    out += printf_string("joint %d: %s  %zu samples at %.4g Hz, observer k1 %g k2 %g k3 %g\n", j.fit.joint,
+                         friction::kind_name(m.kind), m.metrics.samples, j.sample_rate_hz, j.gains.k1,
+                         j.gains.k2, j.gains.k3);
+    if (j.min_speed > 0)
+      out += printf_string("  %zu samples slower than %.3g rad/s (velocity noise %.3g rad/s) or settling after them not counted\n",
+                           j.excluded_slow, j.min_speed, j.velocity_noise);
+    out += "  " + metrics_line(m.metrics) +
+           printf_string("  %llu evaluations  %.3f s\n", static_cast<unsigned long long>(m.evaluations), m.seconds);
+    if (m.global.runs > 0 && r.options.polish.enabled)
+      out += printf_string("  global search rms %.4g Nm (%s), polish: %d iterations\n", m.global_metrics.rms,
+                           m.global.message.c_str(), m.polish_iterations);
+    append_parameters(out, m, "  ");
+    std::string strong;
+    for (Eigen::Index a = 0; a < m.correlation.rows(); ++a)
+      for (Eigen::Index b = a + 1; b < m.correlation.cols(); ++b) {
+        const double c = m.correlation(a, b);
+        if (std::isfinite(c) && std::abs(c) >= 0.9)
+          strong += printf_string(" %s/%s %.3f", friction::kParameterNames[m.free[static_cast<std::size_t>(a)]],
+                                  friction::kParameterNames[m.free[static_cast<std::size_t>(b)]], c);
+      }
+    if (!strong.empty()) out += "  correlations >= 0.9:" + strong + "\n";
+    if (!m.covariance_note.empty()) out += "  covariance: " + m.covariance_note + "\n";
+    if (j.fit.static_model) {
+      const auto& s = *j.fit.static_model;
+      out += "  static (stribeck): " + metrics_line(s.metrics);
+      if (s.metrics.rms > 0)
+        out += printf_string("  (lugre: %+.1f%% rms)", 100.0 * (m.metrics.rms / s.metrics.rms - 1.0));
+      out += '\n';
+      append_parameters(out, s, "    ");
+    }
+    if (j.current)
+      out += printf_string("  current profile friction (%s): ", friction::kind_name(*j.current_kind)) +
+             metrics_line(*j.current) + "\n";
+    if (j.mirror) {
+      out += printf_string("  mirror check: rms %.4g Nm  max %.4g Nm over %zu samples", j.mirror->rms,
+                           j.mirror->max_abs, j.mirror->samples);
+      if (j.mirror_static) out += printf_string("  (stribeck rms %.4g Nm)", j.mirror_static->rms);
+      out += '\n';
+    }
+  }
+  if (!r.mirror_logs.empty())
+    out += printf_string("mirror logs %s / %s: largest position mismatch %.3g rad\n", r.mirror_logs[0].c_str(),
+                         r.mirror_logs.size() > 1 ? r.mirror_logs[1].c_str() : "?", r.mirror_position_mismatch);
+  if (!r.outcome.empty()) out += r.outcome + "\n";
+  return out;
+}
+
+json merged_friction_section(const json* current, int joints, const std::vector<JointFit>& fits,
+                             friction::Kind kind, const friction::Options& options) {
+  std::vector<bool> fitted(static_cast<std::size_t>(joints), false);
+  for (const auto& f : fits) {
+    if (f.joint < 1 || f.joint > joints)
+      throw Error("joint " + std::to_string(f.joint) + " is not a joint of the robot (it has " +
+                  std::to_string(joints) + ")");
+    fitted[static_cast<std::size_t>(f.joint - 1)] = true;
+  }
+  std::string missing;
+  for (int j = 1; j <= joints; ++j)
+    if (!fitted[static_cast<std::size_t>(j - 1)]) missing += (missing.empty() ? "" : ",") + std::to_string(j);
+  json section;
+  if (current && !current->is_null()) {
+    const friction::FrictionModel old = friction::friction_from_json(*current);
+    const bool same_shape = old.kind == kind && static_cast<int>(old.joints.size()) == joints;
+    if (!same_shape && !missing.empty())
+      throw Error(std::string("the profile's friction is ") + friction::kind_name(old.kind) + " for " +
+                  std::to_string(old.joints.size()) + " joints; a " + friction::kind_name(kind) +
+                  " fit of some joints would leave joints " + missing +
+                  " inconsistent: fit every joint, or use --model " + friction::kind_name(old.kind));
+    section = *current;
+    if (!same_shape) section["joints"] = json::array();
+    while (static_cast<int>(section["joints"].size()) < joints) section["joints"].push_back(json::object());
+  } else {
+    if (!missing.empty())
+      throw Error("the profile has no friction section; fitting only some joints would leave joints " + missing +
+                  " without friction: fit every joint");
+    friction::FrictionModel fresh;
+    fresh.kind = kind;
+    fresh.options = options;
+    section = friction::to_json(fresh);
+    section["joints"] = json::array();
+    for (int j = 0; j < joints; ++j) section["joints"].push_back(json::object());
+  }
+  section["model"] = friction::kind_name(kind);
+  if (kind == friction::Kind::lugre && !section.contains("update"))
+    section["update"] = friction::update_name(options.update);
+  const auto used = model_parameters(kind);
+  for (const auto& f : fits) {
+    json& entry = section["joints"][static_cast<std::size_t>(f.joint - 1)];
+    if (!entry.is_object()) entry = json::object();
+    for (const char* name : friction::kParameterNames) entry.erase(name);
+    double x[kParameterCount];
+    f.model.parameters.to_array(x);
+    for (int i : used) entry[friction::kParameterNames[i]] = x[i];
+  }
+  // The result must read back (catches a merge that left a joint incomplete).
+  (void)friction::friction_from_json(section);
+  return section;
+}
+
+std::vector<int> worse_than_current(const FitReport& r) {
+  std::vector<int> worse;
+  for (const auto& j : r.joints)
+    if (j.current && j.fit.model.metrics.rms > j.current->rms * (1 + 1e-9)) worse.push_back(j.fit.joint);
+  return worse;
+}
+
+json provenance_details(const FitReport& r, const std::string& window) {
+  json d;
+  d["logs"] = r.inputs;
+  d["model"] = friction::kind_name(r.options.kind);
+  const auto& g = r.options.global;
+  d["method"] = std::string(method_name(g.method)) + (r.options.polish.enabled ? "+ceres" : "");
+  d["seed"] = g.genetic.seed;
+  if (!window.empty()) d["window"] = window;
+  json metrics = json::array();
+  for (const auto& j : r.joints)
+    metrics.push_back({{"joint", j.fit.joint},
+                       {"rms", number(j.fit.model.metrics.rms)},
+                       {"max_abs", number(j.fit.model.metrics.max_abs)},
+                       {"r_squared", number(j.fit.model.metrics.r_squared)},
+                       {"samples", j.fit.model.metrics.samples}});
+  d["joints"] = metrics;
+  return d;
+}
+
+}  // namespace momentum::fit

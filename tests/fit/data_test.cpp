@@ -1,0 +1,154 @@
+// Reading the fitter's input: column selection, skip and window, NaN rows, restarts, gaps,
+// several logs, slow-sample exclusion and the velocity-noise estimate.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <unistd.h>
+
+#include "momentum/fit/data.hpp"
+#include "momentum/stream/error.hpp"
+
+namespace fit = momentum::fit;
+
+namespace {
+
+// A CSV file in the temporary folder, removed at the end of the test.
+class TempCsv {
+ public:
+  explicit TempCsv(const std::string& text) {
+    path_ = std::filesystem::temp_directory_path() /
+            ("momentum-fit-data-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++) + ".csv");
+    std::ofstream(path_) << text;
+  }
+  ~TempCsv() { std::filesystem::remove(path_); }
+  std::string path() const { return path_.string(); }
+
+ private:
+  std::filesystem::path path_;
+  static inline int counter_ = 0;
+};
+
+std::vector<fit::JointSeries> read(const std::string& text, const fit::SelectOptions& o = {}) {
+  TempCsv file(text);
+  auto in = momentum::stream::Reader::open(file.path());
+  return fit::read_series(*in, o);
+}
+
+}  // namespace
+
+TEST(ReadSeries, AllJointsWithDqAndR) {
+  const auto s = read("t,q1,dq1,dq2,r1,r2,dq3\n0,0,1,2,3,4,5\n0.01,0,1.5,2.5,3.5,4.5,5.5\n");
+  ASSERT_EQ(s.size(), 2u);  // joint 3 has no r3
+  EXPECT_EQ(s[0].joint, 1);
+  EXPECT_EQ(s[1].joint, 2);
+  EXPECT_EQ(s[1].dq, (std::vector<double>{2, 2.5}));
+  EXPECT_EQ(s[1].r, (std::vector<double>{4, 4.5}));
+  EXPECT_EQ(s[0].restart, (std::vector<std::uint8_t>{2, 0}));
+  EXPECT_EQ(s[0].scored_count(), 2u);
+  EXPECT_DOUBLE_EQ(s[0].median_dt(), 0.01);
+}
+
+TEST(ReadSeries, SelectedJointsSkipAndWindow) {
+  std::string text = "t,dq1,r1,dq2,r2\n";
+  for (int k = 0; k <= 100; ++k) text += std::to_string(k * 0.1) + ",1,2,3,4\n";
+  fit::SelectOptions o;
+  o.joints = {2};
+  o.skip = 1.0;
+  auto s = read(text, o);
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_EQ(s[0].joint, 2);
+  EXPECT_EQ(s[0].size(), 101u);
+  EXPECT_EQ(s[0].scored_count(), 91u);  // t >= 1.0 counts (1.0 .. 10.0)
+  o.skip = 0;
+  o.window_begin = 2.0;
+  o.window_end = 4.0;
+  s = read(text, o);
+  EXPECT_EQ(s[0].size(), 41u);          // rows after the window are not kept
+  EXPECT_EQ(s[0].scored_count(), 21u);  // 2.0 .. 4.0
+  EXPECT_EQ(s[0].scored[19], 0);
+  EXPECT_EQ(s[0].scored[20], 1);
+}
+
+TEST(ReadSeries, NanRowsGapsAndRestartColumn) {
+  const auto s = read(
+      "t,dq1,r1,dq2,r2,restart\n"
+      "0.00,1,1,1,1,1\n"
+      "0.01,1,nan,1,1,0\n"   // joint 1 loses this row only
+      "0.02,1,1,1,1,0\n"     // joint 1 restarts here
+      "0.03,1,1,1,1,1\n"     // the observer said so
+      "0.04,1,1,1,1,0\n"
+      "0.05,1,1,1,1,0\n"
+      "0.06,1,1,1,1,0\n"
+      "0.50,1,1,1,1,0\n");   // a gap of 44 steps
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_EQ(s[0].size(), 7u);
+  EXPECT_EQ(s[1].size(), 8u);
+  EXPECT_EQ(s[0].restart, (std::vector<std::uint8_t>{2, 1, 1, 0, 0, 0, 1}));
+  EXPECT_EQ(s[1].restart, (std::vector<std::uint8_t>{2, 0, 0, 1, 0, 0, 0, 1}));
+}
+
+TEST(ReadSeries, TimeNotIncreasingIsRejected) {
+  TempCsv file("t,dq1,r1\n0,1,1\n0.01,1,1\n0.01,1,1\n0.005,1,1\n0.02,1,1\n");
+  auto in = momentum::stream::Reader::open(file.path());
+  const auto s = fit::read_series(*in, {});
+  EXPECT_EQ(s[0].size(), 3u);
+  EXPECT_EQ(in->rows_skipped(), 2u);
+}
+
+TEST(ReadSeries, Errors) {
+  EXPECT_THROW(read("t,q1\n0,1\n"), momentum::Error);               // no dq/r
+  EXPECT_THROW(read("dq1,r1\n0,1\n"), momentum::Error);             // no t
+  fit::SelectOptions o;
+  o.joints = {2};
+  EXPECT_THROW(read("t,dq1,r1\n0,1,1\n", o), momentum::Error);      // no joint 2
+  o = {};
+  o.skip = 10;
+  EXPECT_THROW(read("t,dq1,r1\n0,1,1\n1,1,1\n", o), momentum::Error);  // nothing left
+  o = {};
+  o.window_begin = 2;
+  o.window_end = 1;
+  std::string why;
+  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_THROW(read("t,dq1,r1\n0,1,1\n", o), momentum::Error);
+}
+
+TEST(AppendSeries, ShiftsTimeAndRestarts) {
+  auto a = read("t,dq1,r1\n0,1,1\n0.1,1,1\n0.2,1,1\n")[0];
+  const auto b = read("t,dq1,r1\n5,2,2\n5.1,2,2\n")[0];
+  fit::append_series(a, b);
+  ASSERT_EQ(a.size(), 5u);
+  EXPECT_NEAR(a.t[3], 0.3, 1e-12);
+  EXPECT_NEAR(a.t[4], 0.4, 1e-12);
+  EXPECT_EQ(a.restart, (std::vector<std::uint8_t>{2, 0, 0, 2, 0}));
+  EXPECT_EQ(a.dq[3], 2.0);
+}
+
+TEST(ExcludeSlowSamples, SlowAndSettling) {
+  std::string text = "t,dq1,r1\n";
+  for (int k = 0; k < 20; ++k) text += std::to_string(k * 0.01) + "," + (k == 5 ? "0.001" : "1") + ",0\n";
+  auto s = read(text)[0];
+  // Sample 5 is slow; 0.025 s after it (samples 6, 7) are settling.
+  const auto removed = fit::exclude_slow_samples(s, 0.01, 0.025);
+  EXPECT_EQ(removed, 3u);
+  for (int k = 0; k < 20; ++k) EXPECT_EQ(s.scored[static_cast<std::size_t>(k)], (k >= 5 && k <= 7) ? 0 : 1) << k;
+}
+
+TEST(VelocityNoise, EstimatesWhiteNoiseOnSmoothMotion) {
+  fit::JointSeries s;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  for (int k = 0; k < 5000; ++k) {
+    const double t = k * 0.008;
+    s.t.push_back(t);
+    s.dq.push_back(0.75 * std::cos(1.2566 * t) + noise(rng));
+    s.r.push_back(0);
+    s.restart.push_back(k == 0 ? 2 : 0);
+    s.scored.push_back(1);
+  }
+  EXPECT_NEAR(fit::estimate_velocity_noise(s), 0.002, 0.0001);
+  for (std::size_t k = 0; k < s.size(); ++k) s.dq[k] = 0.75 * std::cos(1.2566 * s.t[k]);
+  EXPECT_LT(fit::estimate_velocity_noise(s), 1e-4);
+}

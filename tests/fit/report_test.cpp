@@ -1,0 +1,134 @@
+// The profile update (merging the friction section, refusing mixed or incomplete results, the
+// worse-fit check) and the report's JSON and text forms.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "momentum/fit/report.hpp"
+#include "momentum/stream/error.hpp"
+
+namespace fit = momentum::fit;
+namespace mf = momentum::friction;
+using nlohmann::json;
+
+namespace {
+
+fit::JointFit joint_fit(int joint, mf::Kind kind, double tau_c) {
+  fit::JointFit f;
+  f.joint = joint;
+  f.model.kind = kind;
+  f.model.parameters = {9e4, 200, 1.5, tau_c, tau_c + 1, 0.05};
+  double x[6];
+  f.model.parameters.to_array(x);
+  const auto used = fit::model_parameters(kind);
+  for (int i = 0; i < 6; ++i) {
+    auto& e = f.model.estimates[static_cast<std::size_t>(i)];
+    e.value = x[i];
+    e.used = std::find(used.begin(), used.end(), i) != used.end();
+    e.free = e.used;
+    e.standard_error = 0.01 * x[i];
+    e.uncertainty = 0.02 * x[i];
+  }
+  f.model.free = used;
+  f.model.correlation = Eigen::MatrixXd::Identity(static_cast<Eigen::Index>(used.size()),
+                                                  static_cast<Eigen::Index>(used.size()));
+  f.model.metrics = {1000, 5.0, 0.1, 0.4, 0.999};
+  return f;
+}
+
+const json kLugreSection = json::parse(R"({
+  "model": "lugre", "update": "semi-implicit", "velocity_cutoff_hz": 20,
+  "joints": [{"sigma0": 1e5, "sigma1": 100, "sigma2": 1, "tau_c": 2, "tau_s": 3, "w_s": 0.05, "note": "kept"},
+             {"sigma0": 1e5, "sigma1": 100, "sigma2": 1, "tau_c": 2, "tau_s": 3, "w_s": 0.05}]})");
+
+}  // namespace
+
+TEST(MergeFriction, ReplacesFittedJointsKeepsTheRest) {
+  const auto section = fit::merged_friction_section(&kLugreSection, 2, {joint_fit(2, mf::Kind::lugre, 5.0)},
+                                                    mf::Kind::lugre, {});
+  EXPECT_EQ(section["update"], "semi-implicit");     // the profile's options stay
+  EXPECT_EQ(section["velocity_cutoff_hz"], 20);
+  EXPECT_EQ(section["joints"][0]["tau_c"], 2);        // joint 1 untouched
+  EXPECT_EQ(section["joints"][0]["note"], "kept");
+  EXPECT_EQ(section["joints"][1]["tau_c"], 5.0);
+  EXPECT_EQ(section["joints"][1]["sigma0"], 9e4);
+  const auto model = mf::friction_from_json(section);
+  EXPECT_EQ(model.joints[1].tau_s, 6.0);
+}
+
+TEST(MergeFriction, NewSectionAndModelChanges) {
+  // No section yet: every joint must be fitted.
+  EXPECT_THROW(fit::merged_friction_section(nullptr, 2, {joint_fit(1, mf::Kind::lugre, 5)}, mf::Kind::lugre, {}),
+               momentum::Error);
+  const auto fresh = fit::merged_friction_section(
+      nullptr, 2, {joint_fit(1, mf::Kind::stribeck, 5), joint_fit(2, mf::Kind::stribeck, 6)}, mf::Kind::stribeck, {});
+  EXPECT_EQ(fresh["model"], "stribeck");
+  EXPECT_FALSE(fresh["joints"][0].contains("sigma0"));  // unused by Stribeck
+  EXPECT_EQ(fresh["joints"][1]["tau_c"], 6);
+  // Another model for some joints only would mix models.
+  EXPECT_THROW(fit::merged_friction_section(&kLugreSection, 2, {joint_fit(1, mf::Kind::stribeck, 5)},
+                                            mf::Kind::stribeck, {}),
+               momentum::Error);
+  // For every joint it replaces the model.
+  const auto all = fit::merged_friction_section(
+      &kLugreSection, 2, {joint_fit(1, mf::Kind::coulomb_viscous, 5), joint_fit(2, mf::Kind::coulomb_viscous, 6)},
+      mf::Kind::coulomb_viscous, {});
+  EXPECT_EQ(all["model"], "coulomb-viscous");
+  EXPECT_FALSE(all["joints"][1].contains("w_s"));
+  // A joint the robot does not have.
+  EXPECT_THROW(fit::merged_friction_section(&kLugreSection, 2, {joint_fit(3, mf::Kind::lugre, 5)}, mf::Kind::lugre, {}),
+               momentum::Error);
+}
+
+TEST(Report, WorseThanCurrent) {
+  fit::FitReport r;
+  fit::JointReport a, b, c;
+  a.fit = joint_fit(1, mf::Kind::lugre, 5);
+  b.fit = joint_fit(2, mf::Kind::lugre, 5);
+  c.fit = joint_fit(3, mf::Kind::lugre, 5);
+  a.current = fit::FitMetrics{1000, 4.0, 0.09, 0.3, 0.999};  // current better than 0.1 rms
+  a.current_kind = mf::Kind::lugre;
+  b.current = fit::FitMetrics{1000, 6.0, 0.11, 0.3, 0.999};  // current worse
+  b.current_kind = mf::Kind::stribeck;
+  r.joints = {a, b, c};                                       // c: no current friction
+  EXPECT_EQ(fit::worse_than_current(r), (std::vector<int>{1}));
+}
+
+TEST(Report, JsonAndText) {
+  fit::FitReport r;
+  r.inputs = {"a.csv"};
+  r.profile = "arm.json";
+  fit::JointReport j;
+  j.fit = joint_fit(1, mf::Kind::lugre, 5);
+  j.fit.model.estimates[1].standard_error = std::nan("");
+  j.fit.model.estimates[0].at_bound = +1;
+  j.fit.model.estimates[0].identifiable = false;
+  j.fit.model.estimates[0].note = "not identifiable: test";
+  j.fit.static_model = joint_fit(1, mf::Kind::stribeck, 5).model;
+  j.fit.static_model->metrics.rms = 0.2;
+  j.sample_rate_hz = 125;
+  r.joints = {j};
+  r.outcome = "profile not written";
+  const json out = fit::report_json(r);
+  EXPECT_EQ(out["model"], "lugre");
+  EXPECT_EQ(out["search"]["population"], 200);
+  const json& p = out["joints"][0]["fit"]["parameters"];
+  EXPECT_EQ(p["sigma0"]["at_bound"], "upper");
+  EXPECT_EQ(p["sigma0"]["identifiable"], false);
+  EXPECT_TRUE(p["sigma1"]["standard_error"].is_null());  // NaN -> null
+  EXPECT_EQ(p["tau_c"]["value"], 5.0);
+  EXPECT_EQ(out["joints"][0]["fit"]["metrics"]["rms"], 0.1);
+  EXPECT_EQ(out["joints"][0]["static"]["model"], "stribeck");
+  EXPECT_FALSE(out["joints"][0]["static"]["parameters"].contains("sigma0"));
+  EXPECT_EQ(out["joints"][0]["fit"]["correlation"]["parameters"].size(), 6u);
+  const std::string text = fit::report_text(r);
+  EXPECT_NE(text.find("joint 1: lugre"), std::string::npos) << text;
+  EXPECT_NE(text.find("not identifiable: test"), std::string::npos) << text;
+  EXPECT_NE(text.find("static (stribeck): rms 0.2 Nm"), std::string::npos) << text;
+  EXPECT_NE(text.find("(lugre: -50.0% rms)"), std::string::npos) << text;
+  EXPECT_NE(text.find("profile not written"), std::string::npos) << text;
+  const json details = fit::provenance_details(r, "2:8");
+  EXPECT_EQ(details["logs"][0], "a.csv");
+  EXPECT_EQ(details["window"], "2:8");
+  EXPECT_EQ(details["joints"][0]["rms"], 0.1);
+}

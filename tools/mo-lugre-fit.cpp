@@ -1,0 +1,341 @@
+// mo-lugre-fit: identify each joint's friction (LuGre, Stribeck or Coulomb-viscous) from the
+// observer's residual on collision-free motion, through the observer's own filter; write it into
+// the robot profile and report what the data say about every parameter.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <optional>
+
+#include "momentum/cli/tool.hpp"
+#include "momentum/fit/data.hpp"
+#include "momentum/fit/friction_fit.hpp"
+#include "momentum/fit/mirror.hpp"
+#include "momentum/fit/report.hpp"
+#include "momentum/model/model.hpp"
+#include "momentum/model/profile.hpp"
+#include "momentum/observer/observer.hpp"
+#include "momentum/stream/error.hpp"
+
+using namespace momentum;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The default search: a short genetic algorithm and the Ceres polish, as good as the paper's
+// full GA (bench/fit_bench.cpp measures both) at a fraction of the time.
+constexpr int kDefaultPopulation = 40;
+constexpr int kDefaultGenerations = 60;
+constexpr int kDefaultRestarts = 2;
+constexpr int kDefaultStall = 20;
+
+double parse_double(const std::string& text, const std::string& option) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(v))
+    throw cli::UsageError(option + ": '" + text + "' is not a number");
+  return v;
+}
+
+// "sigma0=6e4:1e5,w_s=0:0.2" -> bounds; "sigma0=1e5" -> fixed values.
+void parse_assignments(const std::string& text, const std::string& option,
+                       const std::function<void(int, const std::string&)>& apply) {
+  for (const auto& item : cli::split_list(text)) {
+    const auto eq = item.find('=');
+    const int index = eq == std::string::npos ? -1 : fit::parameter_index(item.substr(0, eq));
+    if (index < 0)
+      throw cli::UsageError(option + ": '" + item + "' is not NAME=VALUE with NAME one of sigma0, sigma1, sigma2, tau_c, tau_s, w_s");
+    apply(index, item.substr(eq + 1));
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cli::Tool tool("mo-lugre-fit", "Identify joint friction from the observer's residual of collision-free motion.");
+  tool.add_inputs("observed streams (t, dq<j>, r<j>) of collision-free motion; - or none: stdin");
+  tool.add_profile(true);
+  tool.add_seed();
+  auto& app = tool.app();
+  std::string output, report_path, model_name = "lugre", joints_text, window_text, method_name = "ga";
+  std::string bounds_text, fix_text;
+  bool update = false, force = false, paper = false, no_polish = false, no_static = false;
+  double skip = 0;
+  std::string min_speed_text = "auto";
+  int population = kDefaultPopulation, generations = kDefaultGenerations, restarts = kDefaultRestarts;
+  int stall = kDefaultStall, elite = 2, threads = 0;
+  double crossover = 0.8, mutation = 0.2;
+  std::uint64_t evaluations = 0;
+  std::vector<std::string> mirror_logs;
+  app.add_flag("--update", update, "write the fitted friction into the profile (-p) in place");
+  app.add_option("-o,--output", output, "write the updated profile to FILE instead (- for stdout)")->type_name("FILE");
+  app.add_flag("--force", force, "write even when the fit is worse than the profile's current friction");
+  app.add_option("--report", report_path, "write the JSON report to FILE (- for stdout)")->type_name("FILE");
+  app.add_option("--model", model_name, "lugre (default), stribeck or coulomb-viscous")->type_name("MODEL");
+  app.add_option("--joints", joints_text, "joints to fit, e.g. 1,3 (default: every joint in the stream)")->type_name("LIST");
+  app.add_option("--skip", skip, "seconds at the start of each log that do not count")->type_name("SECONDS");
+  app.add_option("--window", window_text, "count only samples with A <= t <= B (stream time)")->type_name("A:B");
+  app.add_option("--min-speed", min_speed_text,
+                 "do not count samples slower than W rad/s, nor the observer's settling time after them; "
+                 "auto (default): 5 x the velocity noise; 0: count all")->type_name("W|auto");
+  app.add_option("--global", method_name, "global search: ga (default), crs2, isres, mlsl or esch")->type_name("METHOD");
+  app.add_flag("--paper", paper, "the paper's full GA: population 200, 300 generations, one run, no early stop");
+  app.add_option("--population", population, "GA population (default 40)")->type_name("N");
+  app.add_option("--generations", generations, "GA generations per run (default 60)")->type_name("N");
+  app.add_option("--restarts", restarts, "independent GA runs from new random populations (default 2)")->type_name("N");
+  app.add_option("--stall", stall, "stop a run after N generations without improvement, 0 never (default 20)")->type_name("N");
+  app.add_option("--crossover", crossover, "GA crossover probability (default 0.8)")->type_name("P");
+  app.add_option("--mutation", mutation, "GA mutation probability per gene (default 0.2)")->type_name("P");
+  app.add_option("--elite", elite, "individuals passed on unchanged (default 2)")->type_name("N");
+  app.add_option("--evaluations", evaluations, "budget of the NLopt methods (default population x generations x restarts)")->type_name("N");
+  app.add_flag("--no-polish", no_polish, "skip the Ceres least-squares polish");
+  app.add_flag("--no-static", no_static, "do not fit the static Stribeck model for comparison");
+  app.add_option("--bounds", bounds_text, "search box, e.g. sigma0=5e4:2e5,w_s=0.001:0.5")->type_name("LIST");
+  app.add_option("--fix", fix_text, "hold parameters at values, e.g. sigma0=1e5")->type_name("LIST");
+  app.add_option("--threads", threads, "joints fitted at once (default: one per core)")->type_name("N");
+  app.add_option("--mirror", mirror_logs, "check the fit against a trajectory and its mirror (paper's ref. 37)")
+      ->expected(2)->type_name("FORWARD MIRROR");
+
+  return tool.run(argc, argv, [&] {
+    const auto start = std::chrono::steady_clock::now();
+    if (update && !output.empty()) throw cli::UsageError("--update and -o are exclusive");
+    fit::FitOptions options;
+    if (!friction::parse_kind(model_name, &options.kind))
+      throw cli::UsageError("--model: unknown model '" + model_name + "'");
+    if (!fit::parse_method(method_name, &options.global.method))
+      throw cli::UsageError("--global: unknown method '" + method_name + "'");
+    auto& ga = options.global.genetic;
+    if (paper) {
+      auto explicitly = [&](const char* name) { return app.count(name) > 0; };
+      if (!explicitly("--population")) population = 200;
+      if (!explicitly("--generations")) generations = 300;
+      if (!explicitly("--restarts")) restarts = 1;
+      if (!explicitly("--stall")) stall = 0;
+    }
+    ga.population = population;
+    ga.generations = generations;
+    ga.restarts = restarts;
+    ga.stall_generations = stall;
+    ga.crossover = crossover;
+    ga.mutation = mutation;
+    ga.elite = elite;
+    ga.seed = tool.seed();
+    options.global.max_evaluations = evaluations;
+    options.polish.enabled = !no_polish;
+    options.compare_static = !no_static;
+    parse_assignments(bounds_text, "--bounds", [&](int i, const std::string& range) {
+      const auto colon = range.find(':');
+      if (colon == std::string::npos) throw cli::UsageError("--bounds: '" + range + "' is not LO:HI");
+      options.bounds.lower[static_cast<std::size_t>(i)] = parse_double(range.substr(0, colon), "--bounds");
+      options.bounds.upper[static_cast<std::size_t>(i)] = parse_double(range.substr(colon + 1), "--bounds");
+    });
+    parse_assignments(fix_text, "--fix", [&](int i, const std::string& v) {
+      options.fixed[static_cast<std::size_t>(i)] = parse_double(v, "--fix");
+    });
+
+    fit::SelectOptions select;
+    for (const auto& j : cli::split_list(joints_text)) {
+      const double v = parse_double(j, "--joints");
+      if (v < 1 || v != std::floor(v)) throw cli::UsageError("--joints: '" + j + "' is not a joint number");
+      select.joints.push_back(static_cast<int>(v));
+    }
+    select.skip = skip;
+    if (!window_text.empty()) {
+      const auto colon = window_text.find(':');
+      if (colon == std::string::npos) throw cli::UsageError("--window: '" + window_text + "' is not A:B");
+      if (colon > 0) select.window_begin = parse_double(window_text.substr(0, colon), "--window");
+      if (colon + 1 < window_text.size()) select.window_end = parse_double(window_text.substr(colon + 1), "--window");
+    }
+
+    // The profile: robot (joint count), observer (the filter), current friction (options, and
+    // the error to beat).
+    const model::Profile profile = model::load_profile(tool.profile());
+    const model::Model robot = model::build_model(profile);
+    const std::string profile_name = tool.profile();
+    observer::ObserverOptions observer_options;
+    std::optional<friction::FrictionModel> current;
+    try {
+      std::vector<std::string> notes;
+      if (auto it = profile.document.find("observer"); it != profile.document.end())
+        observer_options = observer::observer_options_from_json(*it, &notes);
+      if (auto it = profile.document.find("friction"); it != profile.document.end()) {
+        try {
+          current = friction::friction_from_json(*it, &notes);
+        } catch (const Error& e) {
+          if (!force) throw;
+          warn(profile_name + ": " + e.what() + "; ignored (--force)");
+        }
+      }
+      for (const auto& n : notes) warn(profile_name + ": " + n);
+    } catch (const Error& e) {
+      throw Error(profile_name + ": " + e.what());
+    }
+    if (current && static_cast<int>(current->joints.size()) != robot.nq) {
+      warn(profile_name + ": the friction section has " + std::to_string(current->joints.size()) +
+           " joints, the robot " + std::to_string(robot.nq) + "; not compared");
+      current.reset();
+    }
+    if (current) options.friction = current->options;
+    select.gap_factor = observer_options.gap_factor;
+    std::string why;
+    if (!options.is_valid(&why)) throw cli::UsageError(why);
+    if (!select.is_valid(&why)) throw cli::UsageError(why);
+    const std::vector<observer::Gains> robot_gains = observer_options.joint_gains(robot.nq);
+
+    // The data: every log, appended joint by joint.
+    std::vector<std::string> inputs = tool.inputs();
+    if (inputs.empty()) inputs.push_back("-");
+    std::vector<fit::JointSeries> series;
+    for (const auto& path : inputs) {
+      auto in = tool.open_input(path);
+      auto more = fit::read_series(*in, select);
+      if (series.empty()) {
+        series = std::move(more);
+      } else {
+        if (more.size() != series.size())
+          throw Error(in->name() + ": has other joints than " + inputs.front());
+        for (std::size_t i = 0; i < more.size(); ++i) fit::append_series(series[i], more[i]);
+      }
+      if (in->rows_skipped()) warn(in->name() + ": " + std::to_string(in->rows_skipped()) + " bad rows skipped");
+    }
+    std::vector<observer::Gains> gains;
+    for (auto& s : series) {
+      if (s.joint > robot.nq)
+        throw Error(s.source + ": joint " + std::to_string(s.joint) + " is not a joint of the robot (it has " +
+                    std::to_string(robot.nq) + ")");
+      gains.push_back(robot_gains[static_cast<std::size_t>(s.joint - 1)]);
+    }
+
+    // Samples where a joint (nearly) stands still do not count: the measured velocity cannot
+    // resolve sticking there (see man page). The observer forgets them in about 3 / K1 s.
+    std::vector<fit::JointReport> slow_samples(series.size());
+    for (std::size_t i = 0; i < series.size(); ++i) {
+      auto& s = series[i];
+      auto& j = slow_samples[i];
+      j.velocity_noise = fit::estimate_velocity_noise(s);
+      j.min_speed = min_speed_text == "auto" ? 5.0 * j.velocity_noise : parse_double(min_speed_text, "--min-speed");
+      if (j.min_speed < 0) throw cli::UsageError("--min-speed must be >= 0");
+      if (j.min_speed > 0) j.excluded_slow = fit::exclude_slow_samples(s, j.min_speed, 3.0 / gains[i].k1);
+      if (s.scored_count() == 0)
+        throw Error(s.source + ": joint " + std::to_string(s.joint) + ": no sample faster than --min-speed " +
+                    std::to_string(j.min_speed) + " rad/s left to fit");
+    }
+
+    // Fit, with a progress line on a terminal.
+    cli::Progress progress(tool.show_progress());
+    std::mutex progress_mutex;
+    std::vector<std::string> state(series.size());
+    auto on_progress = [&](const fit::JointProgress& p) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      for (std::size_t i = 0; i < series.size(); ++i)
+        if (series[i].joint == p.joint) {
+          char text[96];
+          if (std::string(p.stage) == "polish")
+            std::snprintf(text, sizeof text, "j%d polish", p.joint);
+          else
+            std::snprintf(text, sizeof text, "j%d %s run %d gen %d cost %.4g", p.joint, p.stage,
+                          p.search.restart + 1, p.search.generation, p.search.best_cost);
+          state[i] = text;
+        }
+      std::string line = "mo-lugre-fit:";
+      for (const auto& s : state)
+        if (!s.empty()) line += "  " + s;
+      progress.update(line);
+    };
+    const auto fits = fit::fit_joints(series, gains, options, threads, on_progress);
+    progress.finish();
+
+    fit::FitReport report;
+    report.inputs = inputs;
+    report.profile = profile_name;
+    report.options = options;
+    report.observer_order = observer_options.order;
+    for (std::size_t i = 0; i < fits.size(); ++i) {
+      fit::JointReport j = std::move(slow_samples[i]);
+      j.fit = fits[i];
+      j.gains = gains[i];
+      const double dt = series[i].median_dt();
+      j.sample_rate_hz = dt > 0 ? 1.0 / dt : 0.0;
+      if (current) {
+        j.current_kind = current->kind;
+        j.current = fit::evaluate_fit(series[i], gains[i], current->kind,
+                                      current->joints[static_cast<std::size_t>(fits[i].joint - 1)], current->options);
+      }
+      report.joints.push_back(std::move(j));
+    }
+    if (!mirror_logs.empty()) {
+      std::vector<int> numbers;
+      for (const auto& s : series) numbers.push_back(s.joint);
+      std::vector<double> k_i(robot.k_i.data(), robot.k_i.data() + robot.k_i.size());
+      auto forward = tool.open_input(mirror_logs[0]);
+      auto mirror = tool.open_input(mirror_logs[1]);
+      const auto reference = fit::mirror_reference(*forward, *mirror, numbers, k_i);
+      report.mirror_logs = mirror_logs;
+      report.mirror_position_mismatch = reference.max_position_mismatch;
+      for (std::size_t i = 0; i < report.joints.size(); ++i) {
+        auto& j = report.joints[i];
+        j.mirror = fit::compare_mirror(reference, i, j.fit.model.kind, j.fit.model.parameters, options.friction, skip);
+        if (j.fit.static_model)
+          j.mirror_static = fit::compare_mirror(reference, i, friction::Kind::stribeck,
+                                                j.fit.static_model->parameters, options.friction, skip);
+      }
+    }
+
+    // The profile: refuse a worse fit unless forced; write a new file and rename it.
+    int status = cli::kSuccess;
+    const std::string destination = update ? profile_name : output;
+    std::string failure;
+    if (destination.empty()) {
+      report.outcome = "profile not written (use --update or -o)";
+    } else {
+      const auto worse = fit::worse_than_current(report);
+      if (!worse.empty() && !force) {
+        std::string list;
+        for (int j : worse) list += (list.empty() ? "" : ",") + std::to_string(j);
+        failure = "joint" + std::string(worse.size() > 1 ? "s " : " ") + list +
+                  ": the new fit is worse than the profile's current friction on these data; profile not written (--force to write anyway)";
+        report.outcome = "refused: " + failure;
+        status = cli::kFailure;
+      } else {
+        nlohmann::json document = profile.document;
+        const nlohmann::json* current_section =
+            document.contains("friction") && current ? &document["friction"] : nullptr;
+        document["friction"] = fit::merged_friction_section(current_section, robot.nq, fits, options.kind,
+                                                            options.friction);
+        model::append_provenance(document, "mo-lugre-fit", fit::provenance_details(report, window_text));
+        if (destination == "-") {
+          std::cout << document.dump(2) << "\n";
+        } else {
+          // A profile written elsewhere keeps pointing at the same URDF.
+          const fs::path from = fs::absolute(fs::path(profile_name)).parent_path();
+          const fs::path to = fs::absolute(fs::path(destination)).parent_path();
+          if (from != to && document.contains("urdf"))
+            document["urdf"] = fs::relative(fs::absolute(profile.urdf), to).generic_string();
+          model::save_profile_atomically(document, destination);
+        }
+        report.outcome = "friction written to " + (destination == "-" ? std::string("stdout") : destination);
+      }
+    }
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!tool.quiet()) std::fputs(fit::report_text(report).c_str(), stderr);
+    if (!report_path.empty()) {
+      const std::string text = fit::report_json(report).dump(2) + "\n";
+      if (report_path == "-") {
+        std::cout << text;
+      } else {
+        std::ofstream file(report_path);
+        file << text;
+        if (!file.flush()) throw Error(report_path + ": cannot write the report");
+      }
+    }
+    if (!failure.empty()) throw Error(failure);
+    return status;
+  });
+}
