@@ -26,12 +26,12 @@ std::string write_temp(const std::string& name, const std::string& text) {
 const char* kTruth =
     "# mo-sim (hand-made)\n"
     "# duration: 100\n"
-    "t_onset,t_end,link,clamp,f_peak\n"
-    "10,10.5,2,0,80\n"
-    "20,21,3,0,60\n"
-    "30,30.2,3,0,40\n"
-    "40,42,2,1,120\n"
-    "50,50.3,3,0,90\n";
+    "t_onset,t_end,link,clamp,f_peak,tau_peak1,tau_peak2\n"
+    "10,10.5,2,0,80,-12.5,3\n"
+    "20,21,3,0,60,1,2\n"
+    "30,30.2,3,0,40,0.5,-0.75\n"
+    "40,42,2,1,120,4,5\n"
+    "50,50.3,3,0,90,6,7\n";
 
 // In mo-detect's format, out of order, with end rows that must be ignored.
 const char* kEvents =
@@ -44,7 +44,8 @@ const char* kEvents =
     "20.01,20.05,2,1;2,onset,3,,,9,9,0\n"    // contact 2: 50 ms, link wrong (2 for 3)
     "10.25,10.3,2,1;2,onset,4,,,9,9,0\n"     // contact 1 again: a repeat
     "40.7,40.8,2,1;2,onset,5,,,9,9,0\n"      // contact 4 after its 0.5 s window: late, missed
-    "50.4,50.5,3,1;2;3,onset,6,,,9,9,9\n"    // contact 5 at the window's edge: 500 ms, right
+    "50.4,50.5,2,1;2,onset,6,,,9,9,0\n"      // contact 5 at the window's edge: 500 ms, link 2
+    "50.4,50.5,3,1;2;3,end,6,51,release,9,9,9\n"  // ... then joint 3 fires: final link 3, right
     "59.9,60,1,1,onset,7,,,9,0,0\n";         // collision-free: false alarm
 // Contact 3 (t 30) has no event: missed.
 
@@ -62,7 +63,8 @@ TEST(Score, HandMadeCase) {
   EXPECT_EQ(s.false_alarms, 2);
   EXPECT_EQ(s.repeats, 1);
   EXPECT_EQ(s.late, 1);
-  EXPECT_EQ(s.isolated, 2);
+  EXPECT_EQ(s.isolated, 2);               // contacts 1 and 5 (by its end row)
+  EXPECT_EQ(s.isolated_at_detection, 1);  // contact 1 only
   EXPECT_NEAR(s.delay.min, 0.05, 1e-12);
   EXPECT_NEAR(s.delay.median, 0.08, 1e-12);
   EXPECT_NEAR(s.delay.max, 0.5, 1e-12);
@@ -97,7 +99,12 @@ TEST(Score, HandMadeCase) {
   EXPECT_NEAR(json["delay_s"]["median"].get<double>(), 0.08, 1e-12);
   const std::string table = format_table(s, true);
   EXPECT_NE(table.find("detected      3 of 5 (60.0%)"), std::string::npos) << table;
-  EXPECT_NE(table.find("contact t 30.000 link 3 40.0 N: MISSED"), std::string::npos) << table;
+  EXPECT_NE(table.find("contact t 30.000 link 3 40.0 N (joints up to 0.8 Nm): MISSED\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("contact t 10.000 link 2 80.0 N (joints up to 12.5 Nm): detected after 80.0 ms, link 2\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("contact t 50.000 link 3 90.0 N (joints up to 7.0 Nm): detected after 500.0 ms, link 3, link 2 at detection\n"),
+            std::string::npos) << table;
+  EXPECT_NE(table.find("contact t 40.000 link 2 120.0 N (joints up to 5.0 Nm) clamp: MISSED\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("false alarm t 60.000\n"), std::string::npos) << table;
 }
 
 TEST(Score, MinimalEventFilesAndEventNumbers) {

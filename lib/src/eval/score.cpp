@@ -98,7 +98,7 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
   std::vector<std::string> header;
   std::size_t c_detect = 0, c_link = 0;
   std::optional<std::size_t> c_onset, c_kind, c_event;
-  std::map<std::string, bool> seen_events;
+  std::map<std::string, std::size_t> event_index;  // event number -> index in detections
   std::string line;
   std::uint64_t number = 0;
   auto reject = [&](const std::string& message) {
@@ -131,11 +131,17 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
       reject(std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
       continue;
     }
-    if (c_kind && lower(fields[*c_kind]) != "onset") continue;
-    if (!c_kind && c_event) {
-      if (seen_events[fields[*c_event]]) continue;
-      seen_events[fields[*c_event]] = true;
+    const std::string kind = c_kind ? lower(fields[*c_kind]) : "onset";
+    if (kind == "end" && c_event) {
+      // The end row completes its event: the final link, over every joint that fired.
+      const auto it = event_index.find(fields[*c_event]);
+      const auto link = stream::parse_double(fields[c_link]);
+      if (it != event_index.end() && link && *link == std::floor(*link) && *link >= 0 && *link <= 1e6)
+        detections[it->second].final_link = static_cast<int>(*link);
+      continue;
     }
+    if (kind != "onset") continue;
+    if (c_event && event_index.count(fields[*c_event])) continue;  // a repeated row of an event
     Detection d;
     d.where = name + ":" + std::to_string(number);
     const auto t = stream::parse_double(fields[c_detect]);
@@ -152,10 +158,12 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
       }
       d.link = static_cast<int>(*link);
     }
+    d.final_link = d.link;
     if (c_onset) {
       const auto onset = stream::parse_double(fields[*c_onset]);
       if (onset) d.t_onset_estimate = *onset;
     }
+    if (c_event) event_index[fields[*c_event]] = detections.size();
     detections.push_back(d);
   }
   if (header.empty()) throw Error(name + ": event file has no header (t_detect,link,...)");
@@ -176,6 +184,8 @@ Truth read_truth(const std::string& path) {
   const std::size_t c_onset = reader->require("t_onset"), c_end = reader->require("t_end"),
                     c_link = reader->require("link");
   const auto c_clamp = reader->find("clamp"), c_force = reader->find("f_peak");
+  std::vector<std::size_t> c_torques;
+  for (int j = 1; reader->find("tau_peak" + std::to_string(j)); ++j) c_torques.push_back(*reader->find("tau_peak" + std::to_string(j)));
   while (const double* row = reader->next()) {
     TruthContact c;
     c.t_onset = row[c_onset];
@@ -188,6 +198,8 @@ Truth read_truth(const std::string& path) {
     c.link = static_cast<int>(link);
     if (c_clamp) c.clamp = row[*c_clamp] != 0;
     if (c_force) c.peak_force = row[*c_force];
+    for (std::size_t k = 0; k < c_torques.size(); ++k)
+      c.peak_torque = k == 0 ? std::abs(row[c_torques[k]]) : std::max(c.peak_torque, std::abs(row[c_torques[k]]));
     truth.contacts.push_back(c);
   }
   std::stable_sort(truth.contacts.begin(), truth.contacts.end(),
@@ -245,7 +257,8 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     if (hit) {
       hit->detected = true;
       hit->delay = t - hit->contact.t_onset;
-      hit->reported_link = e->link;
+      hit->reported_link = e->final_link;
+      hit->link_at_detection = e->link;
       if (std::isfinite(e->t_onset_estimate)) hit->onset_error = e->t_onset_estimate - hit->contact.t_onset;
     } else if (in_span) {
       // Within some contact's span: a repeat when one there is detected, else late.
@@ -273,6 +286,7 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     delays.push_back(o.delay);
     link_delays[o.contact.link].push_back(o.delay);
     if (o.reported_link == o.contact.link) ++s.isolated, ++l.isolated;
+    if (o.link_at_detection == o.contact.link) ++s.isolated_at_detection;
     if (std::isfinite(o.onset_error)) onset_errors.push_back(std::abs(o.onset_error));
   }
   s.missed = s.contacts - s.detected;
@@ -325,7 +339,9 @@ std::string format_table(const Score& s, bool list) {
   else
     line("delay", "-");
   line("isolation", std::to_string(s.isolated) + " of " + std::to_string(s.detected) + " right (" +
-                        percent(s.isolated, s.detected) + ")");
+                        percent(s.isolated, s.detected) + "); at detection " +
+                        std::to_string(s.isolated_at_detection) + " (" +
+                        percent(s.isolated_at_detection, s.detected) + ")");
   if (s.onset_error.count)
     line("onset error", "median " + ms(s.onset_error.median) + "  max " + ms(s.onset_error.max) + " ms");
   if (!s.by_link.empty()) {
@@ -342,12 +358,16 @@ std::string format_table(const Score& s, bool list) {
     for (const auto& o : s.outcomes) {
       std::string text = "contact t " + fixed(o.contact.t_onset, 3) + " link " + std::to_string(o.contact.link);
       if (std::isfinite(o.contact.peak_force)) text += " " + fixed(o.contact.peak_force, 1) + " N";
+      if (std::isfinite(o.contact.peak_torque)) text += " (joints up to " + fixed(o.contact.peak_torque, 1) + " Nm)";
       if (o.contact.clamp) text += " clamp";
-      if (o.detected)
+      if (o.detected) {
         text += ": detected after " + ms(o.delay) + " ms, link " + std::to_string(o.reported_link) +
                 (o.reported_link == o.contact.link ? "" : " (wrong)");
-      else
+        if (o.link_at_detection != o.reported_link)
+          text += ", link " + std::to_string(o.link_at_detection) + " at detection";
+      } else {
         text += ": MISSED";
+      }
       out += text + "\n";
     }
     for (double t : s.false_alarm_times) out += "false alarm t " + fixed(t, 3) + "\n";
@@ -372,6 +392,7 @@ nlohmann::json to_json(const Score& s) {
   j["delay_s"] = stats_json(s.delay);
   j["isolated"] = s.isolated;
   j["isolation_rate"] = s.detected ? nlohmann::json(double(s.isolated) / s.detected) : nlohmann::json(nullptr);
+  j["isolated_at_detection"] = s.isolated_at_detection;
   j["onset_error_s"] = stats_json(s.onset_error);
   j["by_link"] = nlohmann::json::array();
   for (const auto& l : s.by_link)
@@ -382,8 +403,10 @@ nlohmann::json to_json(const Score& s) {
     j["contacts_detail"].push_back({{"t_onset", o.contact.t_onset}, {"t_end", o.contact.t_end},
                                     {"link", o.contact.link}, {"clamp", o.contact.clamp},
                                     {"peak_force", number_or_null(o.contact.peak_force)},
+                                    {"peak_torque", number_or_null(o.contact.peak_torque)},
                                     {"detected", o.detected}, {"delay_s", number_or_null(o.delay)},
-                                    {"reported_link", o.reported_link}});
+                                    {"reported_link", o.reported_link},
+                                    {"link_at_detection", o.link_at_detection}});
   j["false_alarm_times"] = s.false_alarm_times;
   return j;
 }

@@ -3,7 +3,9 @@
 //
 // Matching: contacts and events are taken in time order. An event whose t_detect lies in
 // [t_onset, t_onset + window] of a contact not yet detected detects it (the earliest such
-// contact; delay = t_detect - t_onset; isolation right when the event's link is the contact's).
+// contact; delay = t_detect - t_onset). Isolation is right when the event's final link (its
+// end row's: the fault signature over the whole event) is the contact's; isolation at
+// detection compares the link of the onset row, all a live reaction knows at that instant.
 // An event that detects nothing but falls within a contact's span [t_onset, t_end + window]
 // is not a false alarm: it is a repeat (the contact was already detected) or late (it was not,
 // and its window had passed). Every other event is a false alarm. Collision-free time is the
@@ -23,7 +25,8 @@ namespace momentum::eval {
 struct Detection {
   double t_detect = 0;           // s
   double t_onset_estimate = NAN; // s, NaN when the file has no such column
-  int link = 0;                  // isolated link 1..n, 0 when unknown
+  int link = 0;                  // isolated link at detection (onset row), 1..n; 0: unknown
+  int final_link = 0;            // isolated link over the whole event (end row), else = link
   std::string where;             // file:line, for messages
 };
 
@@ -33,6 +36,9 @@ struct TruthContact {
   int link = 0;                   // 1..n
   bool clamp = false;
   double peak_force = NAN;        // N, NaN when the file has no f_peak column
+  // Largest |tau_peak<j>| over the joints, Nm (NaN without such columns): how hard the contact
+  // could move any residual; a contact far below the thresholds is undetectable by design.
+  double peak_torque = NAN;
 };
 
 struct Truth {
@@ -42,15 +48,16 @@ struct Truth {
 
 // Reads an event file (a path, or "-" for stdin). CSV with a header naming at least t_detect
 // and link; optional t_onset_estimate; other columns are ignored. mo-detect's full format is
-// understood: rows whose "kind" is not "onset" (the end rows) are skipped; without a kind
-// column, only the first row of each "event" number counts. Lines starting with '#' and blank
+// understood: each onset row ("kind" = onset) is a detection, and the end row of the same
+// "event" number, when present, gives its final link (rows of other kinds are skipped);
+// without a kind column, only the first row of each "event" number counts. Lines starting with '#' and blank
 // lines are skipped. A row with a bad t_detect or link is reported through momentum::warn and
 // skipped (strict: momentum::Error `file:line: message`). Throws momentum::Error when the file
 // cannot be read or the header lacks t_detect or link.
 std::vector<Detection> read_detections(const std::string& path, bool strict = false);
 
-// Reads mo-sim's truth file (a sample stream: t_onset, t_end, link required; clamp, f_peak
-// optional) and its "# duration: S" comment. Throws momentum::Error when the file cannot be
+// Reads mo-sim's truth file (a sample stream: t_onset, t_end, link required; clamp, f_peak,
+// tau_peak<j> optional) and its "# duration: S" comment. Throws momentum::Error when the file cannot be
 // read or a required column is missing; a contact whose t_end precedes its t_onset is an error.
 Truth read_truth(const std::string& path);
 
@@ -65,7 +72,8 @@ struct ContactOutcome {
   TruthContact contact;
   bool detected = false;
   double delay = NAN;               // s
-  int reported_link = 0;            // of the detecting event
+  int reported_link = 0;            // final link of the detecting event
+  int link_at_detection = 0;        // link of its onset row
   double onset_error = NAN;         // t_onset_estimate - t_onset, s (when given)
 };
 
@@ -88,7 +96,8 @@ struct Score {
   std::optional<double> collision_free;     // s, when the duration is known
   std::optional<double> false_alarms_per_hour;
   DelayStats delay;
-  int isolated = 0;                          // detected contacts with the right link
+  int isolated = 0;                          // detected contacts with the right final link
+  int isolated_at_detection = 0;             // ... with the right link on the onset row
   DelayStats onset_error;                    // |t_onset_estimate - t_onset|, when given
   std::vector<LinkScore> by_link;            // ascending link
   std::vector<ContactOutcome> outcomes;      // per contact, onset order
