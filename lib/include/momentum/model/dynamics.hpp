@@ -46,8 +46,11 @@ using InVector3 = const typename std::type_identity<Eigen::Matrix<S, 3, 1>>::typ
 
 // Scratch space for the dynamics of one Model. Holds the model's constants cast to S (so a Jet
 // computation casts nothing per call) and the per-body results of the last forward pass, which
-// callers may read after forward_kinematics (or any other function, which runs it first):
-// rotation[i], position[i] = pose of body i in the world frame, axis[i] = world joint axis.
+// callers may read after forward_kinematics, mass_matrix, gravity_torque, inverse_dynamics,
+// coriolis_times_velocity, the energies and the point functions: rotation[i], position[i] =
+// pose of body i in the world frame, axis[i] = world joint axis. momentum_and_beta and
+// coriolis_transpose_times_velocity work in joint-aligned body frames instead (see `aligned_*`)
+// and leave the world-frame fields as they were.
 // Not thread-safe: one Data per thread. Must only be used with the Model it was made from.
 template <class S>
 struct DataTpl {
@@ -83,6 +86,19 @@ struct DataTpl {
   std::vector<Vector3> linear;     // per-body linear momentum or force
   std::vector<Vector3> angular;    // per-body angular momentum or moment about world origin
   std::vector<Vector3> first_moment;  // per-body m c (world)
+
+  // The momentum pass (momentum_and_beta) runs in body frames rotated so that every joint axis
+  // is z (frame i' = body frame i times A_i, A_i e_z = axis_i), which makes the joint rotation
+  // and the projections on the axis nearly free. Constants:
+  std::vector<Matrix3> aligned_joint_rotation;  // A_{i-1}^T R0_i A_i
+  std::vector<Vector3> aligned_translation;     // A_{i-1}^T t0_i
+  std::vector<Vector3> aligned_slide;           // A_{i-1}^T R0_i a_i (prismatic direction)
+  std::vector<Vector3> aligned_com;             // A_i^T com_i
+  std::vector<Matrix3> aligned_inertia;         // A_i^T I_i A_i
+  // Per-call results, in frame i' (rotation: frame i' in frame (i-1)').
+  std::vector<Matrix3> aligned_rotation;
+  std::vector<Vector3> aligned_omega, aligned_velocity, aligned_gravity;
+  std::vector<Vector3> aligned_linear, aligned_angular;  // body momentum about its origin
   Matrix3 tip_rotation_world;
   Vector3 tip_position_world;
 };

@@ -17,6 +17,41 @@ inline Eigen::Matrix3d skew(const Eigen::Vector3d& a) {
   return k;
 }
 
+// A rotation whose third column is the unit vector `axis` (exact for the coordinate axes).
+inline Eigen::Matrix3d frame_with_z_along(const Eigen::Vector3d& axis) {
+  Eigen::Matrix3d a;
+  const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
+                        z = Eigen::Vector3d::UnitZ();
+  if (axis == z) return Eigen::Matrix3d::Identity();
+  if (axis == -z) a << x, -y, -z;
+  else if (axis == x) a << y, z, x;
+  else if (axis == -x) a << z, y, -x;
+  else if (axis == y) a << z, x, y;
+  else if (axis == -y) a << x, z, -y;
+  else a = Eigen::Quaterniond::FromTwoVectors(z, axis).toRotationMatrix();
+  return a;
+}
+
+// Small fixed-size products written out: Eigen's generic kernels for 3-vectors mix SIMD and
+// scalar code and cost about twice the instructions in the momentum pass.
+template <class S>
+inline Eigen::Matrix<S, 3, 1> rotate(const Eigen::Matrix<S, 3, 3>& r, const Eigen::Matrix<S, 3, 1>& x) {
+  return {r(0, 0) * x[0] + r(0, 1) * x[1] + r(0, 2) * x[2],
+          r(1, 0) * x[0] + r(1, 1) * x[1] + r(1, 2) * x[2],
+          r(2, 0) * x[0] + r(2, 1) * x[1] + r(2, 2) * x[2]};
+}
+template <class S>
+inline Eigen::Matrix<S, 3, 1> rotate_back(const Eigen::Matrix<S, 3, 3>& r,
+                                          const Eigen::Matrix<S, 3, 1>& x) {
+  return {r(0, 0) * x[0] + r(1, 0) * x[1] + r(2, 0) * x[2],
+          r(0, 1) * x[0] + r(1, 1) * x[1] + r(2, 1) * x[2],
+          r(0, 2) * x[0] + r(1, 2) * x[1] + r(2, 2) * x[2]};
+}
+template <class S>
+inline Eigen::Matrix<S, 3, 1> cross(const Eigen::Matrix<S, 3, 1>& a, const Eigen::Matrix<S, 3, 1>& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
 inline void check_size(const char* function, const char* what, Eigen::Index got,
                        Eigen::Index want) {
   if (got != want) {
@@ -138,6 +173,25 @@ DataTpl<S>::DataTpl(const Model& model) {
     com.push_back(body.com.cast<S>());
     inertia.push_back(body.inertia.cast<S>());
   }
+  Eigen::Matrix3d previous = Eigen::Matrix3d::Identity();  // A_{i-1}; the root frame is A_0 = I
+  for (std::size_t i = 0; i < n; ++i) {
+    const Joint& joint = model.joints[i];
+    const Body& body = model.bodies[i];
+    const Eigen::Matrix3d a = detail::frame_with_z_along(joint.axis);
+    aligned_joint_rotation.push_back(
+        (previous.transpose() * joint.placement.rotation * a).cast<S>());
+    aligned_translation.push_back((previous.transpose() * joint.placement.translation).cast<S>());
+    aligned_slide.push_back((previous.transpose() * joint.placement.rotation * joint.axis).cast<S>());
+    aligned_com.push_back((a.transpose() * body.com).cast<S>());
+    aligned_inertia.push_back((a.transpose() * body.inertia * a).cast<S>());
+    previous = a;
+  }
+  aligned_rotation.assign(n, Matrix3::Identity());
+  aligned_omega.assign(n, Vector3::Zero());
+  aligned_velocity.assign(n, Vector3::Zero());
+  aligned_gravity.assign(n, Vector3::Zero());
+  aligned_linear.assign(n, Vector3::Zero());
+  aligned_angular.assign(n, Vector3::Zero());
   rotor_inertia = model.rotor_inertia.cast<S>();
   gravity = model.gravity.cast<S>();
   tip_rotation = model.tip_placement.rotation.cast<S>();
@@ -276,80 +330,81 @@ void momentum_pass(const Model& model, DataTpl<S>& data, InVector<S> q, InVector
   if (p) p->resize(n);
   if (ct) ct->resize(n);
   if (beta) beta->resize(n);
-  // Forward: kinematics, velocities and each body's momentum (about the world origin) in one
-  // sweep; this is forward_kinematics + forward_velocity fused for the observer's hot path.
-  Matrix3 rotation_parent = Matrix3::Identity();
-  Vector3 position_parent = Vector3::Zero();
+  // Forward, in aligned frames (joint axis = z): the joint rotation E_i = E0_i Rz(q_i), the
+  // body's angular velocity w, the velocity v of its origin, gravity, and its momentum: linear
+  // l = m (v + w x c), angular about the origin k = I w + c x l.
   Vector3 omega_parent = Vector3::Zero();
   Vector3 velocity_parent = Vector3::Zero();
+  Vector3 gravity_parent = data.gravity;
   for (int i = 0; i < n; ++i) {
-    Vector3 translation = data.joint_translation[i];
-    Matrix3 local;
+    const Matrix3& e0 = data.aligned_joint_rotation[i];
+    Matrix3& e = data.aligned_rotation[i];
+    Vector3 r = data.aligned_translation[i];
     const bool revolute = data.revolute[i] != 0;
     if (revolute) {
       const S s = sin(q[i]);
       const S c = cos(q[i]);
-      local = data.joint_rotation[i] + s * data.joint_rotation_k[i] +
-              (S(1.0) - c) * data.joint_rotation_k2[i];
+      e.col(0) = c * e0.col(0) + s * e0.col(1);
+      e.col(1) = c * e0.col(1) - s * e0.col(0);
+      e.col(2) = e0.col(2);
     } else {
-      local = data.joint_rotation[i];
-      translation += data.joint_axis_parent[i] * q[i];
+      e = e0;
+      r += data.aligned_slide[i] * q[i];
     }
-    const Vector3 z = rotation_parent * data.joint_axis_parent[i];
-    const Vector3 position = position_parent + rotation_parent * translation;
-    const Matrix3 rotation = rotation_parent * local;
-    Vector3 velocity = velocity_parent + omega_parent.cross(position - position_parent);
-    Vector3 omega = omega_parent;
+    Vector3 omega = rotate_back(e, omega_parent);
+    Vector3 velocity = rotate_back(e, Vector3(velocity_parent + cross(omega_parent, r)));
     if (revolute) {
-      omega += z * dq[i];
+      omega.z() += dq[i];
     } else {
-      velocity += z * dq[i];
+      velocity.z() += dq[i];
     }
-    const Vector3 rc = rotation * data.com[i];
-    const Vector3 com = position + rc;
-    const Vector3 l = data.mass[i] * (velocity + omega.cross(rc));
-    const Vector3 spin = rotation * (data.inertia[i] * (rotation.transpose() * omega));
-    data.axis[i] = z;
-    data.position[i] = position;
-    data.rotation[i] = rotation;
-    data.com_offset[i] = rc;
-    data.omega[i] = omega;
-    data.velocity[i] = velocity;
-    data.linear[i] = l;
-    data.angular[i] = spin + com.cross(l);
-    data.first_moment[i] = data.mass[i] * com;
-    rotation_parent = rotation;
-    position_parent = position;
+    const Vector3 gravity = rotate_back(e, gravity_parent);
+    const Vector3& com = data.aligned_com[i];
+    const Vector3 l = data.mass[i] * (velocity + cross(omega, com));
+    data.aligned_omega[i] = omega;
+    data.aligned_velocity[i] = velocity;
+    data.aligned_gravity[i] = gravity;
+    data.aligned_linear[i] = l;
+    data.aligned_angular[i] = rotate(data.aligned_inertia[i], omega) + cross(com, l);
     omega_parent = omega;
     velocity_parent = velocity;
+    gravity_parent = gravity;
   }
-  data.tip_rotation_world = rotation_parent * data.tip_rotation;
-  data.tip_position_world = position_parent + rotation_parent * data.tip_translation;
-  // Backward: composite mass, first moment and momentum of the subtree, projected on S_i.
+  // Backward: composite momentum (about the frame origin, on the joint axis), mass and first
+  // moment of the subtree, carried from frame i+1 into frame i, then projected on z.
   S m = S(0.0);
   Vector3 first_moment = Vector3::Zero();
-  Vector3 linear = Vector3::Zero();   // composite linear momentum
-  Vector3 angular = Vector3::Zero();  // composite angular momentum about the world origin
+  Vector3 linear = Vector3::Zero();
+  Vector3 angular = Vector3::Zero();
   for (int i = n - 1; i >= 0; --i) {
+    if (i + 1 < n) {
+      const Matrix3& e = data.aligned_rotation[i + 1];
+      Vector3 r = data.aligned_translation[i + 1];
+      if (!data.revolute[i + 1]) r += data.aligned_slide[i + 1] * q[i + 1];
+      linear = rotate(e, linear);
+      angular = rotate(e, angular) + cross(r, linear);
+      first_moment = rotate(e, first_moment) + m * r;
+    }
     m += data.mass[i];
-    first_moment += data.first_moment[i];
-    linear += data.linear[i];
-    angular += data.angular[i];
-    const Vector3& z = data.axis[i];
-    const Vector3& w = data.omega[i];
+    first_moment += data.mass[i] * data.aligned_com[i];
+    linear += data.aligned_linear[i];
+    angular += data.aligned_angular[i];
+    const Vector3& w = data.aligned_omega[i];
+    const Vector3& g = data.aligned_gravity[i];
     S pi;
     S cti;
     S gi;
+    // With S_i = [z; 0] at the origin: (C^T dq)_i = h.(v_i x S_i) = K.(w x z) + L.(v x z), and
+    // w x z = (w_y, -w_x, 0).
     if (data.revolute[i]) {
-      // Reference point on the joint axis: S_i = [z; 0], v_i = [w_i; velocity_i].
-      const Vector3 angular_here = angular - data.position[i].cross(linear);
-      pi = z.dot(angular_here);
-      cti = angular_here.dot(w.cross(z)) + linear.dot(data.velocity[i].cross(z));
-      gi = -z.dot((first_moment - m * data.position[i]).cross(data.gravity));
+      const Vector3& v = data.aligned_velocity[i];
+      pi = angular.z();
+      cti = angular.x() * w.y() - angular.y() * w.x() + linear.x() * v.y() - linear.y() * v.x();
+      gi = g.x() * first_moment.y() - g.y() * first_moment.x();  // -z.(F x g)
     } else {
-      pi = z.dot(linear);
-      cti = linear.dot(w.cross(z));
-      gi = -m * z.dot(data.gravity);
+      pi = linear.z();
+      cti = linear.x() * w.y() - linear.y() * w.x();
+      gi = -m * g.z();
     }
     if (p) (*p)[i] = pi + data.rotor_inertia[i] * dq[i];
     if (ct) (*ct)[i] = cti;
