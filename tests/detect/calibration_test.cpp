@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "momentum/detect/calibration.hpp"
+#include "momentum/detect/detector.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
@@ -242,22 +243,26 @@ TEST(Calibrator, RestRowsGetTheirOwnThresholdOnTheDeviationFromTheBaseline) {
   Calibrator c(Signal::mu, 1, o);
   feed(c, r, "s");
   const auto result = c.result();
-  // Independent reference: settling rows 2048..2304 (t - t0 >= 0.25 at row 2304).
+  // Independent reference: rows 2048..2303 are slow (under the rest velocity for less than
+  // 0.25 s), rest starts at row 2304 (t - t0 >= 0.25) with the mean over rows 2048..2304.
   double sum = 0;
   for (int k = 2048; k <= 2304; ++k) sum += r.x[k];
   const double baseline = sum / 257;
-  double rest_max = 0, moving_max = 0;
+  double rest_max = 0, moving_max = 0, slow_max = 0;
   for (int k = 0; k < 6144; ++k) {
-    const bool rest = k >= 2304 && k < 4096;
-    if (rest) rest_max = std::max(rest_max, std::fabs(r.x[k] - baseline));
+    if (k >= 2304 && k < 4096) rest_max = std::max(rest_max, std::fabs(r.x[k] - baseline));
+    else if (k >= 2048 && k < 2304) slow_max = std::max(slow_max, std::fabs(r.x[k]));
     else moving_max = std::max(moving_max, std::fabs(r.x[k]));
   }
   const auto& T = result.thresholds.joints[0];
   ASSERT_TRUE(T.rest);
   EXPECT_FALSE(T.rest_absolute);
   EXPECT_NEAR(*T.rest, rest_max + 0.1, 1e-12);
-  EXPECT_DOUBLE_EQ(T.moving, moving_max + 0.1);  // the settling rows (3 Nm) are moving rows
+  ASSERT_TRUE(T.slow);
+  EXPECT_DOUBLE_EQ(*T.slow, slow_max + 0.1);
+  EXPECT_DOUBLE_EQ(T.moving, moving_max + 0.1);  // the 3 Nm held at rest does not inflate it
   EXPECT_EQ(result.joints[0].rest.samples, 4096u - 2304u);
+  EXPECT_EQ(result.joints[0].slow.samples, 2304u - 2048u);
   EXPECT_NEAR(result.joints[0].rest_absolute.max, 3.0, 0.1);
 
   CalibrationOptions off = o;
@@ -265,6 +270,8 @@ TEST(Calibrator, RestRowsGetTheirOwnThresholdOnTheDeviationFromTheBaseline) {
   Calibrator blind(Signal::mu, 1, off);
   feed(blind, r, "s");
   EXPECT_FALSE(blind.result().thresholds.joints[0].rest);
+  EXPECT_FALSE(blind.result().thresholds.joints[0].slow);
+  EXPECT_NEAR(blind.result().thresholds.joints[0].moving, 3.1, 0.1);
 }
 
 TEST(Calibrator, PicksTheAbsoluteRestStatisticWhenItIsTighter) {
@@ -341,4 +348,99 @@ TEST(Calibrator, ReportListsEveryJointAndState) {
   EXPECT_NE(report.find("r      1     rest  "), std::string::npos) << report;
   EXPECT_NE(report.find("r      1     rest_abs"), std::string::npos) << report;
   EXPECT_NE(report.find("log.csv:"), std::string::npos);
+}
+
+namespace {
+
+// A joint's day: moves at varying speed (residual noise grows with speed), reverses, sticks
+// briefly, holds for a while at an offset (static friction), breaks away with a ramp.
+Rows busy_day(std::uint64_t seed, int rows) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_int_distribution<int> segment(50, 1500);
+  std::uniform_real_distribution<double> speed(-1.5, 1.5), offset(-2.0, 2.0);
+  Rows r;
+  int k = 0, index = 0;
+  while (k < rows) {
+    const int length = segment(rng);
+    const int kind = index++ % 2;  // holds and moves alternate
+    const double v = speed(rng), held = offset(rng);
+    for (int i = 0; i < length && k < rows; ++i, ++k) {
+      r.t.push_back(k / 1000.0);
+      if (kind == 0) {  // hold, with a breakaway ramp over its last 50 rows
+        r.dq.push_back(0.002 * noise(rng));
+        const double ramp = i > length - 50 ? (i - (length - 50)) * 0.02 : 0.0;
+        r.x.push_back(held + ramp + 0.01 * noise(rng));
+      } else {
+        r.dq.push_back(v + 0.002 * noise(rng));
+        r.x.push_back((0.1 + 0.3 * std::fabs(v)) * noise(rng));
+      }
+    }
+  }
+  return r;
+}
+
+}  // namespace
+
+TEST(Calibrator, NoFalseAlarmOnItsOwnDataInAnyConfiguration) {
+  // The detector judges every calibration row by the rule that measured it, so the
+  // calibration data themselves never raise an event, whatever the states' fallbacks.
+  const Rows day = busy_day(21, 60000);
+  for (bool envelope : {false, true})
+    for (std::uint64_t min_rows : {std::uint64_t{1}, std::uint64_t{100}, std::uint64_t{5000}, std::uint64_t{1000000}})
+      for (bool states : {false, true}) {
+        CalibrationOptions o;
+        o.margin_nm = 1e-9;  // as tight as it gets
+        o.envelope = envelope;
+        o.min_state_samples = min_rows;
+        o.rest_state = states;
+        o.rest_rule = RestRule{0.01, 0.2};
+        Calibrator c(Signal::mu, 1, o);
+        feed(c, day, "day");
+        const auto result = c.result();
+        DetectorOptions d;
+        Detector detector(result.thresholds, d, true);
+        int events = 0;
+        for (std::size_t k = 0; k < day.t.size(); ++k)
+          if (detector.step(day.t[k], &day.x[k], &day.dq[k])) ++events;
+        EXPECT_EQ(events, 0) << "envelope " << envelope << " min rows " << min_rows << " states " << states;
+      }
+}
+
+TEST(Calibrator, RestStateSeesASmallPushOnAHoldThatTheSingleThresholdMisses) {
+  const Rows day = busy_day(21, 60000);
+  // The longest hold of the day, and a 1.5 Nm push in its middle, 100 rows long, against the
+  // static friction held there: |x| shrinks, which a threshold on |x| cannot see at all.
+  std::size_t best = 0, best_length = 0;
+  for (std::size_t k = 0; k < day.t.size();) {
+    std::size_t e = k;
+    while (e < day.t.size() && std::fabs(day.dq[e]) < 0.01) ++e;
+    if (e - k > best_length) best = k, best_length = e - k;
+    k = e + 1;
+  }
+  ASSERT_GT(best_length, 800u);
+  Rows pushed = day;
+  const std::size_t at = best + best_length / 2;
+  const double push = day.x[at] > 0 ? -1.5 : 1.5;
+  for (std::size_t k = at; k < at + 100; ++k) pushed.x[k] += push;
+  for (bool states : {true, false}) {
+    CalibrationOptions o;
+    o.margin_percent = 10;
+    o.rest_state = states;
+    o.rest_rule = RestRule{0.01, 0.2};
+    Calibrator c(Signal::mu, 1, o);
+    feed(c, day, "day");
+    const auto thresholds = c.result().thresholds;
+    Detector detector(thresholds, {}, true);
+    std::vector<Event> onsets;
+    for (std::size_t k = 0; k < pushed.t.size(); ++k)
+      if (const Event* e = detector.step(pushed.t[k], &pushed.x[k], &pushed.dq[k]))
+        if (e->kind == EventKind::onset) onsets.push_back(*e);
+    if (states) {
+      ASSERT_EQ(onsets.size(), 1u);
+      EXPECT_DOUBLE_EQ(onsets[0].t_detect, pushed.t[at]);
+    } else {
+      EXPECT_TRUE(onsets.empty());
+    }
+  }
 }

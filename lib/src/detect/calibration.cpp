@@ -48,6 +48,15 @@ void LogHistogram::add(double value) {
   max_ = std::max(max_, value);
 }
 
+void LogHistogram::merge(const LogHistogram& other) {
+  if (other.bins_.size() != bins_.size() || other.lowest_ != lowest_ || other.per_decade_ != per_decade_)
+    throw Error("histogram: merging histograms of different bins");
+  for (std::size_t k = 0; k < bins_.size(); ++k) bins_[k] += other.bins_[k];
+  count_ += other.count_;
+  min_ = std::min(min_, other.min_);
+  max_ = std::max(max_, other.max_);
+}
+
 double LogHistogram::quantile(double p) const {
   if (count_ == 0) return kNaN;
   p = std::clamp(p, 0.0, 1.0);
@@ -96,6 +105,17 @@ void PeakTracker::add_slow(double m, double t) {
   for (const auto& p : candidates_) smallest_ = std::min(smallest_, p.m);
 }
 
+void PeakTracker::merge(const PeakTracker& other) {
+  // Peaks of other streams: apart from ours by construction.
+  for (const auto& p : other.candidates_) {
+    candidates_.push_back(Peak{p.m, p.t, p.stream + (std::uint64_t{1} << 40)});
+  }
+  std::sort(candidates_.begin(), candidates_.end(), [](const Peak& a, const Peak& b) { return a.m > b.m; });
+  if (candidates_.size() > kKeep) candidates_.resize(kKeep);
+  smallest_ = INFINITY;
+  for (const auto& p : candidates_) smallest_ = std::min(smallest_, p.m);
+}
+
 double PeakTracker::second() const {
   if (candidates_.size() < 2) return 0;
   auto top = std::max_element(candidates_.begin(), candidates_.end(), [](const Peak& a, const Peak& b) { return a.m < b.m; });
@@ -109,6 +129,20 @@ double PeakTracker::second() const {
 }
 
 // ---- MagnitudeStats --------------------------------------------------------------------
+
+void MagnitudeStats::merge(const MagnitudeStats& other) {
+  samples_ += other.samples_;
+  seconds_ += other.seconds_;
+  squares_ += other.squares_;
+  compensation_ += other.compensation_;
+  histogram_.merge(other.histogram_);
+  peaks_.merge(other.peaks_);
+  if (other.max_ > max_) {
+    max_ = other.max_;
+    t_max_ = other.t_max_;
+    where_max_ = other.where_max_;
+  }
+}
 
 MagnitudeSummary MagnitudeStats::summary() const {
   MagnitudeSummary s;
@@ -212,7 +246,7 @@ bool CalibrationOptions::IsValid(std::string* why) const {
 
 bool CalibrationResult::any_contact() const {
   for (const auto& j : joints)
-    if (j.moving_contact || j.rest_contact) return true;
+    if (j.moving_contact || j.slow_contact || j.rest_contact) return true;
   return false;
 }
 
@@ -222,13 +256,14 @@ Calibrator::Calibrator(Signal signal, std::size_t joints, CalibrationOptions opt
   if (!options_.IsValid(&why)) throw Error(why);
   if (joints == 0) throw Error("no joints to calibrate");
   for (std::size_t j = 0; j < joints; ++j)
-    joints_.push_back(Joint{RestTracker(options_.rest_rule), {}, {}, {}, EnvelopeFitter(options_.envelope_bin)});
+    joints_.push_back(Joint{RestTracker(options_.rest_rule), {}, {}, {}, {}, EnvelopeFitter(options_.envelope_bin)});
 }
 
 void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
   streams_.push_back(name);
   for (auto& J : joints_) {
     J.moving.begin_stream();
+    J.slow.begin_stream();
     J.rest.begin_stream();
     J.rest_absolute.begin_stream();
   }
@@ -251,53 +286,72 @@ CalibrationResult Calibrator::result() const {
   };
   const std::string sig(signal_name(signal_));
   if (!options_.rest_state)
-    out.notes.push_back("rest state off (--no-rest): one threshold per joint for every row");
+    out.notes.push_back("motion states off (--no-rest): one threshold per joint for every row");
   else if (!have_velocity_)
-    out.notes.push_back("a stream without dq columns: its rows count as moving (no rest state" +
+    out.notes.push_back("a stream without dq columns: its rows count as moving (no slow or rest state" +
                         std::string(options_.envelope ? ", no envelope" : "") + " from it)");
+  auto contact = [&](const MagnitudeSummary& s) {
+    return s.samples >= 1000 &&
+           (s.max > options_.contact_ratio * s.p999 || s.max > options_.contact_ratio * s.second_peak);
+  };
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const auto& J = joints_[j];
     const std::string name = sig + std::to_string(j + 1);
+    const std::string joint = "joint " + std::to_string(j + 1);
     JointCalibration c;
     c.moving = J.moving.summary();
+    c.slow = J.slow.summary();
     c.rest = J.rest.summary();
     c.rest_absolute = J.rest_absolute.summary();
+    if (c.moving.samples + c.slow.samples + c.rest.samples == 0) throw Error(name + ": no finite sample to calibrate on");
     JointThreshold T;
-    if (c.moving.samples == 0 && c.rest.samples == 0)
-      throw Error(name + ": no finite sample to calibrate on");
-    auto contact = [&](const MagnitudeSummary& s) {
-      return s.samples >= 1000 &&
-             (s.max > options_.contact_ratio * s.p999 || s.max > options_.contact_ratio * s.second_peak);
-    };
-    if (c.moving.samples > 0) {
-      T.moving = with_margin(c.moving.max);
-      T.band = c.moving.p99;
-      c.moving_contact = contact(c.moving);
-    } else {
-      // Never moved: the absolute residual at rest is all there is for the moving rule.
-      T.moving = with_margin(c.rest_absolute.max);
-      T.band = c.rest_absolute.p99;
-      out.notes.push_back("joint " + std::to_string(j + 1) + " never moved: its moving threshold is its largest |" +
-                          name + "| at rest");
-    }
-    if (c.rest.samples >= options_.min_rest_samples) {
+    // A state with too few rows for a threshold of its own is judged by the next rule down
+    // (rest -> slow -> moving), exactly as the detector falls back, so its rows (with |x|)
+    // join that state's data here.
+    MagnitudeStats slow = J.slow, moving = J.moving;
+    EnvelopeFitter envelope = J.envelope;
+    if (c.rest.samples >= options_.min_state_samples) {
       // Whichever rest statistic needs the lower threshold on these data: the deviation from
       // the settled baseline (static friction held at rest cancels out), or the plain |x|
       // (better when the residual moves at rest, e.g. a controller ramping torque against
-      // stiction before breakaway, and the friction model holds the level).
+      // stiction before a breakaway, while the friction model holds its level).
       const double deviation = with_margin(c.rest.max), absolute = with_margin(c.rest_absolute.max);
       T.rest_absolute = absolute < deviation;
       const MagnitudeSummary& chosen = T.rest_absolute ? c.rest_absolute : c.rest;
       T.rest = T.rest_absolute ? absolute : deviation;
       T.rest_band = chosen.p99;
       c.rest_contact = contact(chosen);
-    } else if (options_.rest_state && (have_velocity_ || c.rest.samples > 0)) {
-      out.notes.push_back("joint " + std::to_string(j + 1) + " rested for " + std::to_string(c.rest.samples) +
-                          " rows (fewer than " + std::to_string(options_.min_rest_samples) +
-                          "): no rest threshold, it uses its moving threshold at rest");
+    } else if (c.rest.samples > 0) {
+      slow.merge(J.rest_absolute);
+      out.notes.push_back(joint + ": " + std::to_string(c.rest.samples) + " rest rows (fewer than " +
+                          std::to_string(options_.min_state_samples) + "): judged by the slow rule");
     }
-    if (options_.envelope && J.envelope.count() > 0) {
-      c.envelope_raw = J.envelope.fit();
+    const MagnitudeSummary slow_all = slow.summary();
+    if (slow_all.samples >= options_.min_state_samples) {
+      T.slow = with_margin(slow_all.max);
+      T.slow_band = slow_all.p99;
+      c.slow_contact = contact(slow_all);
+    } else if (slow_all.samples > 0) {
+      moving.merge(slow);
+      // The envelope must cover these rows too: a point at |dq| = 0 with their largest |x|
+      // does, as the line's slope is >= 0.
+      envelope.add(0, slow_all.max);
+      out.notes.push_back(joint + ": " + std::to_string(slow_all.samples) + " slow or rest rows (fewer than " +
+                          std::to_string(options_.min_state_samples) + "): judged by the moving rule");
+    }
+    const MagnitudeSummary moving_all = moving.summary();
+    if (moving_all.samples > 0) {
+      T.moving = with_margin(moving_all.max);
+      T.band = moving_all.p99;
+      c.moving_contact = contact(moving_all);
+    } else {
+      // Never moved: the moving rule still needs a value (it judges rows with unknown speed).
+      T.moving = std::max(T.slow.value_or(0), T.rest_absolute ? T.rest.value_or(0) : with_margin(c.rest_absolute.max));
+      T.band = std::max(T.slow_band, c.rest_absolute.p99);
+      out.notes.push_back(joint + " never moved: its moving threshold is its largest |" + name + "| at low speed");
+    }
+    if (options_.envelope && envelope.count() > 0) {
+      c.envelope_raw = envelope.fit();
       if (c.envelope_raw) {
         JointThreshold::Envelope e = *c.envelope_raw;
         if (options_.margin_nm) {
@@ -308,7 +362,7 @@ CalibrationResult Calibrator::result() const {
         }
         if (e.a > 0) {
           T.envelope = e;
-          c.envelope_mean = J.envelope.mean_level(e);
+          c.envelope_mean = envelope.mean_level(e);
         }
       }
     }
@@ -318,7 +372,8 @@ CalibrationResult Calibrator::result() const {
                              fmt(s.max / s.second_peak, "%.3g") +
                              " times the largest peak apart from it: looks like a contact, not noise");
     };
-    if (c.moving_contact) warn_contact("moving", c.moving);
+    if (c.moving_contact) warn_contact("moving", moving_all);
+    if (c.slow_contact) warn_contact("slow", slow_all);
     if (c.rest_contact) warn_contact(T.rest_absolute ? "at rest" : "at rest (deviation)", T.rest_absolute ? c.rest_absolute : c.rest);
     if (!(T.moving > 0))
       throw Error(name + ": the residual is 0 on every row; a percent margin gives no threshold (use --margin in Nm)");
@@ -334,8 +389,8 @@ std::string format_calibration_report(const CalibrationResult& r) {
   out += "# signal " + sig + ": " + std::to_string(r.streams.size()) + " stream" + (r.streams.size() == 1 ? "" : "s") +
          ", " + std::to_string(r.rows) + " rows; margin ";
   out += r.thresholds.margin_nm ? fmt(*r.thresholds.margin_nm) + " Nm" : fmt(r.thresholds.margin_percent.value_or(0)) + "%";
-  out += "; rest when |dq| < " + fmt(r.thresholds.rest_rule.velocity) + " rad/s for " +
-         fmt(r.thresholds.rest_rule.time) + " s (rest: |" + sig + " - baseline|, rest_abs: |" + sig + "| at rest)\n";
+  out += "; slow when |dq| < " + fmt(r.thresholds.rest_rule.velocity) + " rad/s, at rest after " +
+         fmt(r.thresholds.rest_rule.time) + " s of it (rest: |" + sig + " - baseline|, rest_abs: |" + sig + "| at rest)\n";
   char line[512];
   std::snprintf(line, sizeof line, "%-6s %-5s %-8s %10s %10s %10s %10s %10s %10s %10s %10s  %s\n", "signal", "joint",
                 "state", "samples", "seconds", "rms", "p99", "p99.9", "max", "t_max", "threshold", "where");
@@ -352,6 +407,7 @@ std::string format_calibration_report(const CalibrationResult& r) {
       out += line;
     };
     row("moving", c.moving, fmt(T.moving));
+    row("slow", c.slow, T.slow ? fmt(*T.slow) : "-");
     row("rest", c.rest, T.rest && !T.rest_absolute ? fmt(*T.rest) : "-");
     row("rest_abs", c.rest_absolute, T.rest && T.rest_absolute ? fmt(*T.rest) : "-");
   }

@@ -45,9 +45,16 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
     const JointThreshold& T = thresholds_.joints[j];
     const double v = have_velocity_ ? dq[j] : kNaN;
     MotionState state = MotionState::moving;
-    if (have_velocity_ && T.rest) state = J.tracker.update(t, v, x[j], !(open_ && J.fired));
+    if (have_velocity_ && (T.rest || T.slow)) state = J.tracker.update(t, v, x[j], !(open_ && J.fired));
+    // A state without a threshold of its own falls to the next rule down, as in calibration.
+    if (state == MotionState::rest && !T.rest) state = MotionState::slow;
+    if (state == MotionState::slow && !T.slow) state = MotionState::moving;
     double stat, threshold, band;
-    if (state == MotionState::rest) {
+    if (state == MotionState::slow) {
+      stat = std::fabs(x[j]);
+      threshold = *T.slow;
+      band = T.slow_band;
+    } else if (state == MotionState::rest) {
       ++J.rest_rows;
       stat = T.rest_absolute ? std::fabs(x[j]) : std::fabs(x[j] - J.tracker.baseline());
       threshold = *T.rest;

@@ -53,6 +53,8 @@ bool Thresholds::IsValid(std::string* why) const {
     };
     if (!positive(J.moving)) return bad("moving threshold must be > 0, not " + fmt(J.moving));
     if (!(J.band >= 0 && std::isfinite(J.band))) return bad("band must be >= 0");
+    if (J.slow && !positive(*J.slow)) return bad("slow threshold must be > 0, not " + fmt(*J.slow));
+    if (!(J.slow_band >= 0 && std::isfinite(J.slow_band))) return bad("slow band must be >= 0");
     if (J.rest && !positive(*J.rest)) return bad("rest threshold must be > 0, not " + fmt(*J.rest));
     if (!(J.rest_band >= 0 && std::isfinite(J.rest_band))) return bad("rest band must be >= 0");
     if (J.envelope) {
@@ -103,6 +105,8 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
     if (moving == item.end()) throw fail(name + " has no \"moving\" threshold");
     J.moving = number(*moving, name + ".moving");
     if (const auto v = item.find("band"); v != item.end()) J.band = number(*v, name + ".band");
+    if (const auto v = item.find("slow"); v != item.end() && !v->is_null()) J.slow = number(*v, name + ".slow");
+    if (const auto v = item.find("slow_band"); v != item.end()) J.slow_band = number(*v, name + ".slow_band");
     if (const auto v = item.find("rest"); v != item.end() && !v->is_null()) J.rest = number(*v, name + ".rest");
     if (const auto v = item.find("rest_band"); v != item.end()) J.rest_band = number(*v, name + ".rest_band");
     if (const auto v = item.find("rest_statistic"); v != item.end()) {
@@ -129,6 +133,10 @@ nlohmann::json thresholds_to_json(const Thresholds& t) {
   nlohmann::json joints = nlohmann::json::array();
   for (const auto& J : t.joints) {
     nlohmann::json item = {{"moving", J.moving}, {"band", J.band}};
+    if (J.slow) {
+      item["slow"] = *J.slow;
+      item["slow_band"] = J.slow_band;
+    }
     if (J.rest) {
       item["rest"] = *J.rest;
       item["rest_band"] = J.rest_band;

@@ -30,6 +30,8 @@ class LogHistogram {
   // Values under `lowest` read as min(lowest, max). NaN when empty.
   double quantile(double p) const;
   double max() const { return max_; }
+  // Adds the counts of a histogram with the same bins. Throws momentum::Error otherwise.
+  void merge(const LogHistogram& other);
 
  private:
   double lowest_, highest_;
@@ -52,6 +54,8 @@ class PeakTracker {
   }
   // Largest peak at least `window` away from the largest one (0 when none).
   double second() const;
+  // Adds the peaks of another tracker (as from other streams).
+  void merge(const PeakTracker& other);
 
  private:
   static constexpr std::size_t kKeep = 8;
@@ -107,6 +111,8 @@ class MagnitudeStats {
   }
   MagnitudeSummary summary() const;
   std::uint64_t samples() const { return samples_; }
+  // Adds the rows of another accumulator (another state's rows judged by this state's rule).
+  void merge(const MagnitudeStats& other);
 
  private:
   std::uint64_t samples_ = 0;
@@ -151,7 +157,7 @@ struct CalibrationOptions {
   std::optional<double> margin_nm;
   double margin_percent = 10.0;
   RestRule rest_rule;
-  // Use the rest state (needs dq): rows at rest get their own threshold on |x - baseline|.
+  // Use the motion states (needs dq): slow rows and rows at rest get their own thresholds.
   // Off: every row counts as moving.
   bool rest_state = true;
   // Fit the velocity envelope of the moving rows (needs dq columns).
@@ -161,19 +167,22 @@ struct CalibrationOptions {
   // same joint and state, or contact_ratio times the largest peak 1 s or more away from it
   // (a short log where a contact fills the top 0.1%). Checked from 1000 samples on.
   double contact_ratio = 2.0;
-  // Fewest rest rows for a rest threshold; with fewer the joint uses its moving threshold.
-  std::uint64_t min_rest_samples = 100;
+  // Fewest rows for a slow or rest threshold; with fewer, those rows are judged by the next
+  // rule down (rest -> slow -> moving) and calibrated with it.
+  std::uint64_t min_state_samples = 100;
   bool IsValid(std::string* why) const;
 };
 
 // Per-joint results of a calibration.
 struct JointCalibration {
-  MagnitudeSummary moving;         // |x| while moving (and settling)
+  MagnitudeSummary moving;         // |x| while moving
+  MagnitudeSummary slow;           // |x| while slow (under the rest velocity, not yet at rest)
   MagnitudeSummary rest;           // |x - baseline| at rest
   MagnitudeSummary rest_absolute;  // |x| at rest: what a rest-blind threshold would need
   std::optional<JointThreshold::Envelope> envelope_raw;  // before the margin
   double envelope_mean = NAN;  // mean envelope threshold over the moving rows (margin incl.)
   bool moving_contact = false;  // moving max looks like a contact
+  bool slow_contact = false;    // slow max looks like a contact
   bool rest_contact = false;    // rest max looks like a contact
 };
 
@@ -215,6 +224,8 @@ class Calibrator {
       if (state == MotionState::rest) {
         J.rest.add(x[j] - J.tracker.baseline(), t, dt, where);
         J.rest_absolute.add(x[j], t, dt, where);
+      } else if (state == MotionState::slow) {
+        J.slow.add(x[j], t, dt, where);
       } else {
         J.moving.add(x[j], t, dt, where);
         if (dq && options_.envelope) J.envelope.add(std::fabs(dq[j]), std::fabs(x[j]));
@@ -229,7 +240,7 @@ class Calibrator {
  private:
   struct Joint {
     RestTracker tracker;
-    MagnitudeStats moving, rest, rest_absolute;
+    MagnitudeStats moving, slow, rest, rest_absolute;
     EnvelopeFitter envelope;
   };
   Signal signal_;

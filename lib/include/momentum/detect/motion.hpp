@@ -3,11 +3,17 @@
 // residual while it rests. Calibration and detection use this one rule, so a threshold is
 // always compared with the statistic it was measured on.
 //
-// Why a rest state: a joint at rest holds an unknown part of its static friction (anything in
-// [-tau_s, tau_s]); a friction model driven by velocity noise cannot know which, so the
-// compensated residual of a resting joint sits somewhere in a band several Nm wide. It stays
-// there, though, until the joint moves or is pushed. So at rest the statistic is the change of
-// the residual since the joint settled, which a push moves and static friction does not.
+// Three states, like libfranka's separate thresholds per phase:
+// - moving: |dq| at or above the rest velocity;
+// - slow: below it, but not yet for the rest time: reversals, sticking, stopping, breakaway.
+//   Friction changes sign or is held at an unknown level there, so the residual strays most;
+//   giving these rows their own threshold keeps them from inflating the moving one;
+// - rest: below it for the rest time. A joint at rest holds an unknown part of its static
+//   friction (anything in [-tau_s, tau_s]); a friction model driven by velocity noise cannot
+//   know which, so the compensated residual sits somewhere in a band several Nm wide. It stays
+//   there, though, until the joint moves or is pushed, so at rest the statistic can be the
+//   change of the residual since the joint settled, which a push moves and static friction
+//   held does not.
 
 #include <cmath>
 #include <limits>
@@ -16,7 +22,7 @@
 
 namespace momentum::detect {
 
-enum class MotionState { moving, rest };
+enum class MotionState { moving, slow, rest };
 
 class RestTracker {
  public:
@@ -24,9 +30,9 @@ class RestTracker {
   explicit RestTracker(RestRule rule) : rule_(rule) {}
 
   // One row: time t (s), joint velocity dq (rad/s; NaN = unknown, counts as moving) and the
-  // residual x (Nm; a NaN residual does not enter the baseline). `may_rest` false keeps a joint that is not already at rest from entering
-  // rest (used while the joint is part of an open event). Returns the state for this row;
-  // rows while the joint settles (slow, but not yet for rule.time) are moving.
+  // residual x (Nm; a NaN residual does not enter the baseline). `may_rest` false keeps a
+  // joint that is not already at rest from entering rest (used while the joint is part of an
+  // open event). Returns the state for this row.
   MotionState update(double t, double dq, double x, bool may_rest = true) {
     if (!(std::fabs(dq) < rule_.velocity)) {
       reset();
@@ -35,7 +41,7 @@ class RestTracker {
     if (at_rest_) return MotionState::rest;
     if (!may_rest) {
       reset();
-      return MotionState::moving;
+      return MotionState::slow;
     }
     if (std::isnan(since_)) since_ = t;
     if (std::isfinite(x)) {
@@ -47,10 +53,10 @@ class RestTracker {
       baseline_ = sum_ / static_cast<double>(count_);
       return MotionState::rest;
     }
-    return MotionState::moving;
+    return MotionState::slow;
   }
 
-  // Mean residual over the settling rows, Nm; meaningful while at rest.
+  // Mean residual over the slow rows before rest, Nm; meaningful while at rest.
   double baseline() const { return baseline_; }
   bool at_rest() const { return at_rest_; }
   void reset() {

@@ -10,6 +10,7 @@
 //       "margin": {"nm": 0.5},                             // or {"percent": 10}
 //       "joints": [
 //         {"moving": 2.6, "band": 1.1,                     // Nm
+//          "slow": 3.9, "slow_band": 2.0,                  // Nm, optional
 //          "rest": 0.9, "rest_band": 0.3,                  // Nm, optional
 //          "rest_statistic": "deviation",                  // or "absolute"
 //          "envelope": {"a": 1.7, "b": 0.9}},              // Nm, Nm s/rad, optional
@@ -48,7 +49,12 @@ struct JointThreshold {
   // 99th percentile of |signal| while moving in the calibration data: the usual band, used for
   // the onset estimate. 0 when unknown.
   double band = 0;
-  // Threshold at rest on the rest statistic; absent: the joint uses `moving` at rest too.
+  // Threshold on |signal| while slow (|dq| under the rest velocity, not yet for the rest
+  // time); absent: the moving rule applies.
+  std::optional<double> slow;
+  // 99th percentile of |signal| while slow. 0 when unknown.
+  double slow_band = 0;
+  // Threshold at rest on the rest statistic; absent: the moving rule applies at rest too.
   std::optional<double> rest;
   // The rest statistic: |signal - baseline| (deviation from the mean over the settling time),
   // or |signal| (absolute). Calibration picks the one with the lower threshold.
