@@ -127,34 +127,37 @@ int main(int argc, char** argv) {
       warn(tool.profile() + ": no simulation.friction: simulating a frictionless arm");
     const friction::FrictionModel* friction = section.has_friction && !no_friction ? &section.friction : nullptr;
 
+    // Outputs are opened once the run has been set up (callbacks.start), so that an invalid
+    // campaign leaves no half-written file behind.
     std::unique_ptr<stream::Writer> out;
     std::optional<can::Database> dbc;
     std::unique_ptr<sim::CandumpOutput> bus;
-    if (candump) {
-      dbc = can::Database::load(dbc_path);
-      bus = std::make_unique<sim::CandumpOutput>(*dbc, output, model.nq, 1.0 / run.rate_hz);
-    } else {
-      stream::WriterOptions writer_options;
-      writer_options.encoding = stream::parse_encoding(output_format);
-      writer_options.line_buffered = line_buffered;
-      out = stream::Writer::open(output, writer_options);
-      out->comment(tool.provenance());
-      out->comment(" mo-sim: seed " + std::to_string(tool.seed()) + ", trajectory " + trajectory + ", duration " +
-                   format_number(run.trajectory.duration) + " s, rate " + format_number(run.rate_hz) + " Hz");
-      out->header(sim::sample_columns(model.nq, with_truth));
-    }
-
     std::unique_ptr<stream::Writer> truth;
-    if (!truth_path.empty()) {
-      truth = stream::Writer::open(truth_path, {});
-      truth->comment(tool.provenance());
-      truth->comment(" duration: " + format_number(run.trajectory.duration));
-      truth->header(sim::truth_columns(model.nq));
-    }
+    if (candump) dbc = can::Database::load(dbc_path);
+    sim::RunCallbacks callbacks;
+    callbacks.start = [&] {
+      if (candump) {
+        bus = std::make_unique<sim::CandumpOutput>(*dbc, output, model.nq, 1.0 / run.rate_hz);
+      } else {
+        stream::WriterOptions writer_options;
+        writer_options.encoding = stream::parse_encoding(output_format);
+        writer_options.line_buffered = line_buffered;
+        out = stream::Writer::open(output, writer_options);
+        out->comment(tool.provenance());
+        out->comment(" mo-sim: seed " + std::to_string(tool.seed()) + ", trajectory " + trajectory + ", duration " +
+                     format_number(run.trajectory.duration) + " s, rate " + format_number(run.rate_hz) + " Hz");
+        out->header(sim::sample_columns(model.nq, with_truth));
+      }
+      if (!truth_path.empty()) {
+        truth = stream::Writer::open(truth_path, {});
+        truth->comment(tool.provenance());
+        truth->comment(" duration: " + format_number(run.trajectory.duration));
+        truth->header(sim::truth_columns(model.nq));
+      }
+    };
 
     cli::Progress progress(tool.show_progress());
     std::vector<double> row;
-    sim::RunCallbacks callbacks;
     callbacks.sample = [&](const sim::Sample& s) {
       if (bus) {
         bus->write(s);

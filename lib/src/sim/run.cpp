@@ -150,6 +150,7 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
     return s;
   };
   long long sample_step = schedule(0);
+  if (callbacks.start) callbacks.start();
 
   std::size_t next_contact = 0;
   std::optional<ActiveContact> active;

@@ -85,6 +85,7 @@ struct RunSummary {
 };
 
 struct RunCallbacks {
+  std::function<void()> start;                       // once set up and validated, before any sample
   std::function<void(const Sample&)> sample;         // every written sample, in time order
   std::function<void(const ContactTruth&)> contact;  // every contact, when it has ended
   std::function<void(double t)> progress;            // now and then with the simulated time
