@@ -1,5 +1,6 @@
 // mo-calibrate: per-joint collision thresholds from collision-free motion, into the profile.
 #include <cstdio>
+#include <filesystem>
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
@@ -132,7 +133,15 @@ int main(int argc, char** argv) {
     details["margin"] = options.margin_nm ? nlohmann::json{{"nm", *options.margin_nm}}
                                           : nlohmann::json{{"percent", options.margin_percent}};
     model::append_provenance(document, "mo-calibrate", details);
-    model::save_profile_atomically(document, output.empty() ? tool.profile() : output);
+    const std::string destination = output.empty() ? tool.profile() : output;
+    // A profile written to another folder keeps pointing at the same URDF.
+    namespace fs = std::filesystem;
+    const fs::path from = fs::absolute(fs::path(tool.profile())).parent_path();
+    const fs::path to = fs::absolute(fs::path(destination)).parent_path();
+    if (from != to && document.contains("urdf") && document["urdf"].is_string() &&
+        !fs::path(document["urdf"].get<std::string>()).is_absolute())
+      document["urdf"] = fs::relative(fs::absolute(profile->urdf), to).generic_string();
+    model::save_profile_atomically(document, destination);
     return cli::kSuccess;
   });
 }
