@@ -24,13 +24,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The default search: a short genetic algorithm and the Ceres polish, as good as the paper's
-// full GA (bench/fit_bench.cpp measures both) at a fraction of the time.
-constexpr int kDefaultPopulation = 40;
-constexpr int kDefaultGenerations = 60;
-constexpr int kDefaultRestarts = 2;
-constexpr int kDefaultStall = 20;
-
 double parse_double(const std::string& text, const std::string& option) {
   std::size_t used = 0;
   double v = 0;
@@ -69,9 +62,10 @@ int main(int argc, char** argv) {
   bool update = false, force = false, paper = false, no_polish = false, no_static = false;
   double skip = 0;
   std::string min_speed_text = "auto";
-  int population = kDefaultPopulation, generations = kDefaultGenerations, restarts = kDefaultRestarts;
-  int stall = kDefaultStall, elite = 2, threads = 0;
-  double crossover = 0.8, mutation = 0.2;
+  const fit::GeneticOptions quick = fit::quick_search();
+  int population = quick.population, generations = quick.generations, restarts = quick.restarts;
+  int stall = quick.stall_generations, elite = quick.elite, threads = 0;
+  double crossover = quick.crossover, mutation = quick.mutation;
   std::uint64_t evaluations = 0;
   std::vector<std::string> mirror_logs;
   app.add_flag("--update", update, "write the fitted friction into the profile (-p) in place");
@@ -87,10 +81,10 @@ int main(int argc, char** argv) {
                  "auto (default): 5 x the velocity noise; 0: count all")->type_name("W|auto");
   app.add_option("--global", method_name, "global search: ga (default), crs2, isres, mlsl or esch")->type_name("METHOD");
   app.add_flag("--paper", paper, "the paper's full GA: population 200, 300 generations, one run, no early stop");
-  app.add_option("--population", population, "GA population (default 40)")->type_name("N");
-  app.add_option("--generations", generations, "GA generations per run (default 60)")->type_name("N");
-  app.add_option("--restarts", restarts, "independent GA runs from new random populations (default 2)")->type_name("N");
-  app.add_option("--stall", stall, "stop a run after N generations without improvement, 0 never (default 20)")->type_name("N");
+  app.add_option("--population", population, "GA population (default " + std::to_string(population) + ")")->type_name("N");
+  app.add_option("--generations", generations, "GA generations per run (default " + std::to_string(generations) + ")")->type_name("N");
+  app.add_option("--restarts", restarts, "independent GA runs from new random populations (default " + std::to_string(restarts) + ")")->type_name("N");
+  app.add_option("--stall", stall, "stop a run after N generations without improvement, 0 never (default " + std::to_string(stall) + ")")->type_name("N");
   app.add_option("--crossover", crossover, "GA crossover probability (default 0.8)")->type_name("P");
   app.add_option("--mutation", mutation, "GA mutation probability per gene (default 0.2)")->type_name("P");
   app.add_option("--elite", elite, "individuals passed on unchanged (default 2)")->type_name("N");

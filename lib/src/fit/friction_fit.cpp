@@ -45,6 +45,15 @@ std::vector<int> model_parameters(Kind kind) {
   return {};
 }
 
+GeneticOptions quick_search() {
+  GeneticOptions o;
+  o.population = 40;
+  o.generations = 60;
+  o.restarts = 2;
+  o.stall_generations = 20;
+  return o;
+}
+
 bool PolishOptions::is_valid(std::string* why) const {
   auto fail = [&](const char* text) {
     if (why) *why = text;
@@ -362,21 +371,31 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
   fit.evaluations = fit.global.evaluations;
 
   // Polish, then covariance, in scaled parameters x / scale (so that the trust region and the
-  // rank decisions see comparable columns).
-  std::vector<double> x(nfree);
-  for (std::size_t j = 0; j < nfree; ++j)
-    x[j] = fit.global.best[j] / problem.scale[static_cast<std::size_t>(problem.free[j])];
-  ceres::Problem::Options problem_options;
-  ceres::Problem ceres_problem(problem_options);
-  auto* cost = new ceres::DynamicAutoDiffCostFunction<Residuals, kParameterCount>(new Residuals{&problem, problem.scale});
-  cost->AddParameterBlock(static_cast<int>(nfree));
-  cost->SetNumResiduals(static_cast<int>(problem.scored));
-  ceres_problem.AddResidualBlock(cost, nullptr, x.data());
-  for (std::size_t j = 0; j < nfree; ++j) {
-    const auto i = static_cast<std::size_t>(problem.free[j]);
-    ceres_problem.SetParameterLowerBound(x.data(), static_cast<int>(j), options.bounds.lower[i] / problem.scale[i]);
-    ceres_problem.SetParameterUpperBound(x.data(), static_cast<int>(j), options.bounds.upper[i] / problem.scale[i]);
-  }
+  // rank decisions see comparable columns). The polish starts from the best of every run of
+  // the global search (the cost has several basins; the runs usually find different ones)
+  // and keeps the lowest end point.
+  auto scaled = [&](const std::vector<double>& physical) {
+    std::vector<double> v(nfree);
+    for (std::size_t j = 0; j < nfree; ++j) v[j] = physical[j] / problem.scale[static_cast<std::size_t>(problem.free[j])];
+    return v;
+  };
+  auto physical = [&](const std::vector<double>& v) {
+    std::vector<double> p(nfree);
+    for (std::size_t j = 0; j < nfree; ++j) p[j] = v[j] * problem.scale[static_cast<std::size_t>(problem.free[j])];
+    return problem.assemble(p.data(), nullptr);
+  };
+  auto add_block = [&](ceres::Problem& cp, std::vector<double>& v) {
+    auto* cost = new ceres::DynamicAutoDiffCostFunction<Residuals, kParameterCount>(new Residuals{&problem, problem.scale});
+    cost->AddParameterBlock(static_cast<int>(nfree));
+    cost->SetNumResiduals(static_cast<int>(problem.scored));
+    cp.AddResidualBlock(cost, nullptr, v.data());
+    for (std::size_t j = 0; j < nfree; ++j) {
+      const auto i = static_cast<std::size_t>(problem.free[j]);
+      cp.SetParameterLowerBound(v.data(), static_cast<int>(j), options.bounds.lower[i] / problem.scale[i]);
+      cp.SetParameterUpperBound(v.data(), static_cast<int>(j), options.bounds.upper[i] / problem.scale[i]);
+    }
+  };
+  std::vector<double> x = scaled(fit.global.best);
   if (options.polish.enabled) {
     if (progress) progress({joint, "polish", {0, 0, fit.global.cost, fit.evaluations}});
     ceres::Solver::Options so;
@@ -390,25 +409,69 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     so.logging_type = ceres::SILENT;
     so.minimizer_progress_to_stdout = false;
     so.num_threads = 1;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &ceres_problem, &summary);
-    fit.polish_iterations = static_cast<int>(summary.iterations.size()) - 1;
-    fit.polish_residual_evaluations = static_cast<std::uint64_t>(summary.num_residual_evaluations);
-    fit.polish_jacobian_evaluations = static_cast<std::uint64_t>(summary.num_jacobian_evaluations);
-    fit.polish_message = summary.message;
-    fit.evaluations += fit.polish_residual_evaluations + fit.polish_jacobian_evaluations;
-    std::vector<double> polished(nfree);
-    for (std::size_t j = 0; j < nfree; ++j)
-      polished[j] = x[j] * problem.scale[static_cast<std::size_t>(problem.free[j])];
-    const Params candidate = problem.assemble(polished.data(), nullptr);
-    if (summary.IsSolutionUsable() && problem.cost(candidate) <= fit.global.cost) {
-      fit.parameters = candidate;
-    } else {
-      fit.polish_message += " (kept the global search's result)";
-      for (std::size_t j = 0; j < nfree; ++j)
-        x[j] = fit.global.best[j] / problem.scale[static_cast<std::size_t>(problem.free[j])];
+    std::vector<std::vector<double>> starts = fit.global.run_best;
+    if (starts.empty()) starts.push_back(fit.global.best);
+    double best_cost = fit.global.cost;
+    int improved = 0;
+    // Ceres' projected steps stall when the unconstrained step leaves the box (a bristle
+    // parameter pinned at its bound makes it "converge" far from the optimum of the others):
+    // so parameters that end on a bound are held there and the rest solved again, and held
+    // ones whose gradient points back into the box are released (an active-set loop).
+    auto at_bound = [&](const std::vector<double>& v, std::size_t j) {
+      const auto i = static_cast<std::size_t>(problem.free[j]);
+      const double lo = options.bounds.lower[i] / problem.scale[i], hi = options.bounds.upper[i] / problem.scale[i];
+      const double tol = 1e-9 * (hi - lo);
+      return v[j] <= lo + tol ? -1 : (v[j] >= hi - tol ? +1 : 0);
+    };
+    for (const auto& start_point : starts) {
+      std::vector<double> v = scaled(start_point);
+      std::vector<int> held;
+      ceres::Solver::Summary summary;
+      for (int round = 0; round < 4; ++round) {
+        ceres::Problem cp;
+        add_block(cp, v);
+        if (!held.empty()) {
+          if (held.size() == nfree) break;
+          cp.SetManifold(v.data(), new ceres::SubsetManifold(static_cast<int>(nfree), held));
+        }
+        ceres::Solve(so, &cp, &summary);
+        fit.polish_iterations += static_cast<int>(summary.iterations.size()) - 1;
+        fit.polish_residual_evaluations += static_cast<std::uint64_t>(summary.num_residual_evaluations);
+        fit.polish_jacobian_evaluations += static_cast<std::uint64_t>(summary.num_jacobian_evaluations);
+        if (!summary.IsSolutionUsable()) break;
+        // The full gradient (no manifold) decides which bounds stay active.
+        ceres::Problem full;
+        add_block(full, v);
+        std::vector<double> gradient;
+        double c = 0;
+        if (!full.Evaluate(ceres::Problem::EvaluateOptions(), &c, nullptr, &gradient, nullptr)) break;
+        std::vector<int> next;
+        for (std::size_t j = 0; j < nfree; ++j) {
+          const int side = at_bound(v, j);
+          // Descent is -gradient: it leaves the box at the lower bound when gradient > 0.
+          if ((side < 0 && gradient[j] > 0) || (side > 0 && gradient[j] < 0)) next.push_back(static_cast<int>(j));
+        }
+        if (next == held) break;
+        held = next;
+      }
+      if (!summary.IsSolutionUsable()) continue;
+      const Params candidate = physical(v);
+      const double c = problem.cost(candidate);
+      if (c <= best_cost) {
+        best_cost = c;
+        fit.parameters = candidate;
+        x = v;
+        fit.polish_message = summary.BriefReport();
+        ++improved;
+      }
     }
+    fit.evaluations += fit.polish_residual_evaluations + fit.polish_jacobian_evaluations;
+    if (!improved) fit.polish_message = "no polish improved on the global search; kept its result";
+    else if (starts.size() > 1)
+      fit.polish_message = "best of " + std::to_string(starts.size()) + " starts: " + fit.polish_message;
   }
+  ceres::Problem ceres_problem;
+  add_block(ceres_problem, x);
   fit.metrics = metrics_of(problem, fit.parameters);
 
   // Standard errors: sigma^2 (J^T J)^-1 with sigma^2 = SSE / (m - p), inflated by the

@@ -149,6 +149,7 @@ GlobalSummary minimize_genetic(const CostFunction& cost, const Bounds& bounds,
       costs[i] = evaluate(x);
     }
     double run_best = std::numeric_limits<double>::infinity();
+    std::vector<double> run_best_x;
     double stall_reference = std::numeric_limits<double>::infinity();
     int stalled = 0;
     int generation = 1;
@@ -165,7 +166,10 @@ GlobalSummary minimize_genetic(const CostFunction& cost, const Bounds& bounds,
       }
       pop.swap(next);
       costs.swap(next_costs);
-      run_best = std::min(run_best, costs[0]);
+      if (costs[0] < run_best || run_best_x.empty()) {
+        run_best = costs[0];
+        run_best_x.assign(pop.begin(), pop.begin() + static_cast<std::ptrdiff_t>(d));
+      }
       note_best(individual(pop, 0), costs[0]);
       ++summary.generations;
       report(run, generation);
@@ -217,6 +221,7 @@ GlobalSummary minimize_genetic(const CostFunction& cost, const Bounds& bounds,
       costs.swap(next_costs);
     }
     summary.run_costs.push_back(run_best);
+    summary.run_best.push_back(run_best_x);
     summary.message = ended;
   }
   if (summary.runs > 1) summary.message += " (best of " + std::to_string(summary.runs) + " runs)";

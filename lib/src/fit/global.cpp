@@ -97,6 +97,7 @@ GlobalSummary minimize_nlopt(const CostFunction& cost, const Bounds& bounds,
     throw Error(std::string("nlopt ") + method_name(options.method) + ": " + nlopt_result_to_string(result));
   if (summary.best.empty()) throw Error(std::string("nlopt ") + method_name(options.method) + ": no evaluation");
   summary.run_costs.push_back(summary.cost);
+  summary.run_best.push_back(summary.best);
   summary.message = std::string("nlopt ") + nlopt_result_to_string(result) + " after " +
                     std::to_string(summary.evaluations) + " evaluations";
   summary.seconds =

@@ -53,6 +53,12 @@ int parameter_index(const std::string& name);
 // Coulomb-viscous sigma2, tau_c.
 std::vector<int> model_parameters(friction::Kind kind);
 
+// The short genetic search that mo-lugre-fit runs before the polish by default: population
+// 40, 60 generations, 2 runs, stop after 20 generations without improvement (paper's crossover
+// and mutation probabilities). With the polish it ends at least as low as the paper's full GA
+// (200 x 300) on the paper's motion at a twentieth of the evaluations (bench/fit_bench.cpp).
+GeneticOptions quick_search();
+
 // Options of the local polish.
 struct PolishOptions {
   bool enabled = true;

@@ -90,6 +90,7 @@ struct GlobalSummary {
   int generations = 0;             // generations run, all runs (NLopt: evaluations / population)
   int runs = 0;                    // runs started (genetic restarts), 1 for NLopt
   std::vector<double> run_costs;   // best cost of each run (genetic)
+  std::vector<std::vector<double>> run_best;  // best parameters of each run (NLopt: best)
   double seconds = 0;              // wall time
   std::string message;             // how it ended, e.g. "300 generations" or "stalled for 20 generations"
 };
