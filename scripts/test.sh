@@ -13,6 +13,4 @@ scripts/setup.sh build-sanitize -DMOMENTUM_WERROR=ON -DMOMENTUM_SANITIZE=ON \
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-sanitize -j"$jobs" --output-on-failure
 
-if [[ -x tests/fuzz/run.sh ]]; then
-  tests/fuzz/run.sh
-fi
+tests/fuzz/run.sh 20
