@@ -33,6 +33,8 @@ int main(int argc, char** argv) {
   app.add_option("--rest-velocity", options.rest_rule.velocity, "a joint rests below this |dq|, rad/s (0.01)")
       ->type_name("RAD/S");
   app.add_option("--rest-time", options.rest_rule.time, "... held for this long, s (0.5)")->type_name("SECONDS");
+  app.add_option("--hangover", options.rest_rule.hangover, "rows stay slow this long after |dq| rises, s (0.1)")
+      ->type_name("SECONDS");
   app.add_flag("--no-rest", no_rest, "no rest state: one threshold per joint for all rows");
   app.add_option("--contact-ratio", options.contact_ratio, "a max over RATIO x p99.9, or x the next peak, looks like a contact (2)")
       ->type_name("RATIO");

@@ -239,7 +239,7 @@ TEST(Calibrator, RestRowsGetTheirOwnThresholdOnTheDeviationFromTheBaseline) {
   }
   CalibrationOptions o;
   o.margin_nm = 0.1;
-  o.rest_rule = RestRule{0.01, 0.25};  // 256 rows
+  o.rest_rule = RestRule{0.01, 0.25, 0};  // 256 rows
   Calibrator c(Signal::mu, 1, o);
   feed(c, r, "s");
   const auto result = c.result();
@@ -288,7 +288,7 @@ TEST(Calibrator, PicksTheAbsoluteRestStatisticWhenItIsTighter) {
   }
   CalibrationOptions o;
   o.margin_nm = 0.1;
-  o.rest_rule = RestRule{0.01, 0.25};
+  o.rest_rule = RestRule{0.01, 0.25, 0};
   Calibrator c(Signal::mu, 1, o);
   feed(c, r, "s");
   const auto result = c.result();
@@ -394,7 +394,7 @@ TEST(Calibrator, NoFalseAlarmOnItsOwnDataInAnyConfiguration) {
         o.envelope = envelope;
         o.min_state_samples = min_rows;
         o.rest_state = states;
-        o.rest_rule = RestRule{0.01, 0.2};
+        o.rest_rule = RestRule{0.01, 0.2, 0.1};
         Calibrator c(Signal::mu, 1, o);
         feed(c, day, "day");
         const auto result = c.result();
@@ -427,7 +427,7 @@ TEST(Calibrator, RestStateSeesASmallPushOnAHoldThatTheSingleThresholdMisses) {
     CalibrationOptions o;
     o.margin_percent = 10;
     o.rest_state = states;
-    o.rest_rule = RestRule{0.01, 0.2};
+    o.rest_rule = RestRule{0.01, 0.2, 0.1};
     Calibrator c(Signal::mu, 1, o);
     feed(c, day, "day");
     const auto thresholds = c.result().thresholds;

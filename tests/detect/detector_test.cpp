@@ -298,7 +298,7 @@ TEST(Detector, VelocityEnvelopeRaisesTheThresholdWithSpeed) {
 namespace {
 Thresholds with_rest(double moving, double rest, bool absolute = false) {
   Thresholds t = constant({moving});
-  t.rest_rule = RestRule{0.01, 100 * kDt};
+  t.rest_rule = RestRule{0.01, 100 * kDt, 0};
   t.joints[0].rest = rest;
   t.joints[0].rest_absolute = absolute;
   return t;
@@ -363,4 +363,25 @@ TEST(Detector, AFiredJointCannotSettleIntoItsContact) {
   EXPECT_DOUBLE_EQ(r.rows[1].t_end, 2000 * kDt);
   // After the event the joint settles and rests normally.
   EXPECT_GT(d.rest_rows(0), 1500u);
+}
+
+TEST(Detector, SlowStateHoldsForTheHangoverAfterTheJointPicksUpSpeed) {
+  // Slow threshold 3, moving 1; the joint reverses (|dq| < 0.01) on rows 1000..1009 and the
+  // residual spikes to 2 over rows 1000..1109: rows up to 1009 + 100 (hangover 100 rows) are
+  // slow, so only row 1109 (moving again, 2 > 1) fires.
+  Thresholds t = constant({1});
+  t.rest_rule = RestRule{0.01, 1.0, 100 * kDt};
+  t.joints[0].slow = 3;
+  Detector d(t, {}, true);
+  auto r = run(d, 3000, [](int k, int) { return k >= 1000 && k < 1110 ? 2.0 : 0.0; },
+               [](int k, int) { return k >= 1000 && k < 1010 ? 0.0 : 0.5; });
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 1109 * kDt);
+  // With no hangover, the spike fires as soon as the joint is moving again.
+  t.rest_rule.hangover = 0;
+  Detector d0(t, {}, true);
+  auto r0 = run(d0, 3000, [](int k, int) { return k >= 1000 && k < 1110 ? 2.0 : 0.0; },
+                [](int k, int) { return k >= 1000 && k < 1010 ? 0.0 : 0.5; });
+  ASSERT_EQ(r0.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r0.rows[0].t_detect, 1010 * kDt);
 }

@@ -10,7 +10,7 @@ TEST(Thresholds, StoreAndReadBackKeepsEverythingElse) {
   nlohmann::json doc = {{"urdf", "a.urdf"}, {"friction", {{"model", "lugre"}}}};
   Thresholds t;
   t.signal = Signal::mu;
-  t.rest_rule = RestRule{0.02, 0.3};
+  t.rest_rule = RestRule{0.02, 0.3, 0.05};
   t.margin_nm = 0.5;
   JointThreshold a;
   a.moving = 2.5;
@@ -32,6 +32,7 @@ TEST(Thresholds, StoreAndReadBackKeepsEverythingElse) {
   ASSERT_TRUE(back);
   EXPECT_EQ(back->rest_rule.velocity, 0.02);
   EXPECT_EQ(back->rest_rule.time, 0.3);
+  EXPECT_EQ(back->rest_rule.hangover, 0.05);
   EXPECT_EQ(*back->margin_nm, 0.5);
   ASSERT_EQ(back->joints.size(), 2u);
   EXPECT_EQ(back->joints[0].moving, 2.5);

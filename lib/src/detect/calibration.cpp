@@ -116,16 +116,14 @@ void PeakTracker::merge(const PeakTracker& other) {
   for (const auto& p : candidates_) smallest_ = std::min(smallest_, p.m);
 }
 
-double PeakTracker::second() const {
-  if (candidates_.size() < 2) return 0;
-  auto top = std::max_element(candidates_.begin(), candidates_.end(), [](const Peak& a, const Peak& b) { return a.m < b.m; });
-  double second = 0;
-  for (auto it = candidates_.begin(); it != candidates_.end(); ++it) {
-    if (it == top) continue;
-    const bool apart = it->stream != top->stream || std::fabs(it->t - top->t) >= window_;
-    if (apart) second = std::max(second, it->m);
-  }
-  return second;
+double PeakTracker::typical() const {
+  if (candidates_.size() < 5) return 0;
+  std::vector<double> others;
+  for (const auto& p : candidates_) others.push_back(p.m);
+  std::sort(others.begin(), others.end());
+  others.pop_back();  // the max itself
+  const std::size_t n = others.size();
+  return n % 2 ? others[n / 2] : 0.5 * (others[n / 2 - 1] + others[n / 2]);
 }
 
 // ---- MagnitudeStats --------------------------------------------------------------------
@@ -158,7 +156,7 @@ MagnitudeSummary MagnitudeStats::summary() const {
   s.max = max_;
   s.t_max = t_max_;
   s.where_max = where_max_;
-  s.second_peak = peaks_.second();
+  s.typical_peak = peaks_.typical();
   return s;
 }
 
@@ -269,7 +267,7 @@ void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
   }
   have_velocity_ = have_velocity_ && have_velocity;
   t_prev_ = kNaN;
-  for (auto& J : joints_) J.tracker.reset();
+  for (auto& J : joints_) J.tracker.restart();
 }
 
 CalibrationResult Calibrator::result() const {
@@ -277,6 +275,7 @@ CalibrationResult Calibrator::result() const {
   out.rows = rows_;
   out.streams = streams_;
   out.have_velocity = have_velocity_;
+  out.states = options_.rest_state;
   out.thresholds.signal = signal_;
   out.thresholds.rest_rule = options_.rest_rule;
   if (options_.margin_nm) out.thresholds.margin_nm = *options_.margin_nm;
@@ -291,8 +290,9 @@ CalibrationResult Calibrator::result() const {
     out.notes.push_back("a stream without dq columns: its rows count as moving (no slow or rest state" +
                         std::string(options_.envelope ? ", no envelope" : "") + " from it)");
   auto contact = [&](const MagnitudeSummary& s) {
-    return s.samples >= 1000 &&
-           (s.max > options_.contact_ratio * s.p999 || s.max > options_.contact_ratio * s.second_peak);
+    const bool above_peaks = s.typical_peak > 0 && s.max > options_.contact_ratio * s.typical_peak;
+    const bool above_quantile = s.seconds >= 1000 && s.max > options_.contact_ratio * s.p999;
+    return s.samples >= 1000 && (above_peaks || above_quantile);
   };
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const auto& J = joints_[j];
@@ -369,8 +369,8 @@ CalibrationResult Calibrator::result() const {
     auto warn_contact = [&](const char* state, const MagnitudeSummary& s) {
       out.warnings.push_back(name + " " + state + ": max " + fmt(s.max) + " Nm at " + s.where_max + " (t=" +
                              fmt(s.t_max) + " s) is " + fmt(s.max / s.p999, "%.3g") + " times p99.9 and " +
-                             fmt(s.max / s.second_peak, "%.3g") +
-                             " times the largest peak apart from it: looks like a contact, not noise");
+                             (s.typical_peak > 0 ? fmt(s.max / s.typical_peak, "%.3g") : std::string("?")) +
+                             " times the typical peak: looks like a contact, not noise");
     };
     if (c.moving_contact) warn_contact("moving", moving_all);
     if (c.slow_contact) warn_contact("slow", slow_all);
@@ -389,8 +389,12 @@ std::string format_calibration_report(const CalibrationResult& r) {
   out += "# signal " + sig + ": " + std::to_string(r.streams.size()) + " stream" + (r.streams.size() == 1 ? "" : "s") +
          ", " + std::to_string(r.rows) + " rows; margin ";
   out += r.thresholds.margin_nm ? fmt(*r.thresholds.margin_nm) + " Nm" : fmt(r.thresholds.margin_percent.value_or(0)) + "%";
-  out += "; slow when |dq| < " + fmt(r.thresholds.rest_rule.velocity) + " rad/s, at rest after " +
-         fmt(r.thresholds.rest_rule.time) + " s of it (rest: |" + sig + " - baseline|, rest_abs: |" + sig + "| at rest)\n";
+  if (r.states)
+    out += "; slow when |dq| < " + fmt(r.thresholds.rest_rule.velocity) + " rad/s (and " +
+           fmt(r.thresholds.rest_rule.hangover) + " s after), at rest after " + fmt(r.thresholds.rest_rule.time) +
+           " s of it (rest: |" + sig + " - baseline|, rest_abs: |" + sig + "| at rest)\n";
+  else
+    out += "; no motion states\n";
   char line[512];
   std::snprintf(line, sizeof line, "%-6s %-5s %-8s %10s %10s %10s %10s %10s %10s %10s %10s  %s\n", "signal", "joint",
                 "state", "samples", "seconds", "rms", "p99", "p99.9", "max", "t_max", "threshold", "where");
@@ -436,13 +440,16 @@ std::string format_threshold_changes(const Thresholds* old, const Thresholds& up
   for (std::size_t j = 0; j < updated.joints.size(); ++j) {
     const auto& a = old->joints[j];
     const auto& b = updated.joints[j];
-    out += "# change " + sig + std::to_string(j + 1) + ": moving " + fmt(a.moving) + " -> " + fmt(b.moving) + " Nm (" +
-           fmt(100 * (b.moving - a.moving) / a.moving, "%+.1f") + "%)";
-    if (a.rest || b.rest) {
-      out += ", rest " + (a.rest ? fmt(*a.rest) : std::string("-")) + " -> " + (b.rest ? fmt(*b.rest) : std::string("-")) + " Nm";
-      if (a.rest && b.rest) out += " (" + fmt(100 * (*b.rest - *a.rest) / *a.rest, "%+.1f") + "%)";
-    }
-    out += "\n";
+    auto line = [&](const char* state, std::optional<double> before, std::optional<double> after) {
+      if (!before && !after) return;
+      out += "# change " + sig + std::to_string(j + 1) + " " + state + " " + (before ? fmt(*before) : "-") + " -> " +
+             (after ? fmt(*after) : "-") + " Nm";
+      if (before && after) out += " " + fmt(100 * (*after - *before) / *before, "%+.1f") + "%";
+      out += "\n";
+    };
+    line("moving", a.moving, b.moving);
+    line("slow", a.slow, b.slow);
+    line("rest", a.rest, b.rest);
   }
   return out;
 }

@@ -35,6 +35,10 @@ bool RestRule::IsValid(std::string* why) const {
     if (why) *why = "rest time must be >= 0, not " + fmt(time);
     return false;
   }
+  if (!(std::isfinite(hangover) && hangover >= 0)) {
+    if (why) *why = "hangover must be >= 0, not " + fmt(hangover);
+    return false;
+  }
   return true;
 }
 
@@ -88,6 +92,9 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
     if (!rest->is_object()) throw fail(base + ".rest must be an object");
     if (const auto v = rest->find("velocity"); v != rest->end()) t.rest_rule.velocity = number(*v, base + ".rest.velocity");
     if (const auto v = rest->find("time"); v != rest->end()) t.rest_rule.time = number(*v, base + ".rest.time");
+    // Profiles written before the hangover existed mean none.
+    t.rest_rule.hangover = 0;
+    if (const auto v = rest->find("hangover"); v != rest->end()) t.rest_rule.hangover = number(*v, base + ".rest.hangover");
   }
   if (const auto margin = entry->find("margin"); margin != entry->end() && margin->is_object()) {
     if (const auto v = margin->find("nm"); v != margin->end()) t.margin_nm = number(*v, base + ".margin.nm");
@@ -127,7 +134,7 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
 
 nlohmann::json thresholds_to_json(const Thresholds& t) {
   nlohmann::json entry = nlohmann::json::object();
-  entry["rest"] = {{"velocity", t.rest_rule.velocity}, {"time", t.rest_rule.time}};
+  entry["rest"] = {{"velocity", t.rest_rule.velocity}, {"time", t.rest_rule.time}, {"hangover", t.rest_rule.hangover}};
   if (t.margin_nm) entry["margin"] = {{"nm", *t.margin_nm}};
   else if (t.margin_percent) entry["margin"] = {{"percent", *t.margin_percent}};
   nlohmann::json joints = nlohmann::json::array();

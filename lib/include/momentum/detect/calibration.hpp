@@ -52,8 +52,9 @@ class PeakTracker {
     if (candidates_.size() == kKeep && m <= smallest_) return;
     add_slow(m, t);
   }
-  // Largest peak at least `window` away from the largest one (0 when none).
-  double second() const;
+  // Median of the other peaks kept (up to 7), each at least `window` apart: what a usual
+  // excursion reaches. 0 with fewer than 4 other peaks (too little data to tell).
+  double typical() const;
   // Adds the peaks of another tracker (as from other streams).
   void merge(const PeakTracker& other);
 
@@ -77,8 +78,9 @@ struct MagnitudeSummary {
   double rms = 0, p99 = 0, p999 = 0, max = 0;  // Nm; NaN when no samples
   std::string where_max;  // `file:line` of the row holding the max
   double t_max = 0;       // its time, s
-  // Largest peak at least the peak window (1 s) away from the max, or in another stream; Nm.
-  double second_peak = 0;
+  // Median of up to 7 other peaks, 1 s or more apart (or in other streams), Nm; 0 with fewer
+  // than 4 of them.
+  double typical_peak = 0;
 };
 
 // Accumulates a MagnitudeSummary: RMS (compensated sum of squares), quantiles (LogHistogram),
@@ -163,9 +165,10 @@ struct CalibrationOptions {
   // Fit the velocity envelope of the moving rows (needs dq columns).
   bool envelope = false;
   double envelope_bin = 1e-3;  // rad/s
-  // The max looks like a contact, not noise, when it exceeds contact_ratio times p99.9 of the
-  // same joint and state, or contact_ratio times the largest peak 1 s or more away from it
-  // (a short log where a contact fills the top 0.1%). Checked from 1000 samples on.
+  // The max looks like a contact, not noise, when it exceeds contact_ratio times the typical
+  // peak of the same joint and state (the median of up to 7 other peaks 1 s or more apart:
+  // usual excursions recur, a contact does not), or, with 1000 s or more of that state (so that
+  // 0.1% of it outlasts a contact), contact_ratio times its p99.9.
   double contact_ratio = 2.0;
   // Fewest rows for a slow or rest threshold; with fewer, those rows are judged by the next
   // rule down (rest -> slow -> moving) and calibrated with it.
@@ -192,6 +195,7 @@ struct CalibrationResult {
   std::uint64_t rows = 0;
   std::vector<std::string> streams;  // names of the streams, in order
   bool have_velocity = false;
+  bool states = true;  // motion states used (CalibrationOptions::rest_state)
   // Human-readable notes (a joint never at rest, no dq columns, ...), one line each.
   std::vector<std::string> notes;
   // Maxima that look like a contact (see CalibrationOptions::contact_ratio), one line each.
@@ -259,7 +263,9 @@ class Calibrator {
 std::string format_calibration_report(const CalibrationResult& result);
 
 // '#' lines comparing the thresholds in place (`old`, or nullptr when the profile has none for
-// the signal) with the new ones, per joint: moving and rest, old -> new, and the change in %.
+// the signal) with the new ones, one per joint and state, for awk:
+//   # change mu1 moving 2.5 -> 2.28 Nm -8.8%
+// ("-" for a state without a threshold, then no percentage).
 std::string format_threshold_changes(const Thresholds* old, const Thresholds& updated);
 
 }  // namespace momentum::detect

@@ -5,7 +5,8 @@
 //
 // Three states, like libfranka's separate thresholds per phase:
 // - moving: |dq| at or above the rest velocity;
-// - slow: below it, but not yet for the rest time: reversals, sticking, stopping, breakaway.
+// - slow: below it, but not yet for the rest time, and for the hangover time after it rises
+//   above it again: reversals, sticking, stopping, breakaway.
 //   Friction changes sign or is held at an unknown level there, so the residual strays most;
 //   giving these rows their own threshold keeps them from inflating the moving one;
 // - rest: below it for the rest time. A joint at rest holds an unknown part of its static
@@ -36,8 +37,11 @@ class RestTracker {
   MotionState update(double t, double dq, double x, bool may_rest = true) {
     if (!(std::fabs(dq) < rule_.velocity)) {
       reset();
-      return MotionState::moving;
+      // Still slow for the hangover after the joint picked up speed: the residual lags the
+      // friction's change of sign through the observer's filter.
+      return t - last_slow_ < rule_.hangover ? MotionState::slow : MotionState::moving;
     }
+    last_slow_ = t;
     if (at_rest_) return MotionState::rest;
     if (!may_rest) {
       reset();
@@ -59,6 +63,11 @@ class RestTracker {
   // Mean residual over the slow rows before rest, Nm; meaningful while at rest.
   double baseline() const { return baseline_; }
   bool at_rest() const { return at_rest_; }
+  // Forgets everything, the hangover included (a new stream).
+  void restart() {
+    reset();
+    last_slow_ = -std::numeric_limits<double>::infinity();
+  }
   void reset() {
     at_rest_ = false;
     since_ = std::numeric_limits<double>::quiet_NaN();
@@ -73,6 +82,7 @@ class RestTracker {
   double sum_ = 0;
   long long count_ = 0;
   double baseline_ = 0;
+  double last_slow_ = -std::numeric_limits<double>::infinity();
 };
 
 }  // namespace momentum::detect

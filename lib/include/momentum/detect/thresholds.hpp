@@ -6,7 +6,7 @@
 //
 //   "thresholds": {
 //     "mu": {
-//       "rest": {"velocity": 0.01, "time": 0.5},          // rad/s, s: the rest rule
+//       "rest": {"velocity": 0.01, "time": 0.5, "hangover": 0.1},  // rad/s, s, s
 //       "margin": {"nm": 0.5},                             // or {"percent": 10}
 //       "joints": [
 //         {"moving": 2.6, "band": 1.1,                     // Nm
@@ -35,10 +35,12 @@ std::string_view signal_name(Signal signal);  // "mu" or "r"
 // "mu" or "r"; throws momentum::Error otherwise.
 Signal parse_signal(std::string_view name);
 
-// When a joint counts as at rest: |dq| below `velocity` on every row for at least `time`.
+// The motion states of a joint (see motion.hpp): slow when |dq| is below `velocity`, and for
+// `hangover` seconds after it rises above it; at rest after `time` seconds below it.
 struct RestRule {
   double velocity = 0.01;  // rad/s (m/s for prismatic joints), > 0
   double time = 0.5;       // s, >= 0
+  double hangover = 0.1;   // s, >= 0
   bool IsValid(std::string* why) const;
 };
 
