@@ -42,7 +42,7 @@ night() {  # label day
   local verdict="kept"
   [[ $before != "$after" ]] && verdict="replaced"
   local reason
-  reason=$(grep -E 'INSTALLED|KEPT' "$backups/nightly.log" | tail -1 | sed -E 's/^[^ ]+ //; s/(INSTALLED|KEPT) .*: /\1: /; s/INSTALLED.*/INSTALLED/')
+  reason=$(grep -E 'INSTALLED|KEPT' "$backups/nightly.log" | tail -1 | sed -E 's/^[^ ]+ //; s/(INSTALLED|KEPT) .*: /\1: /; s/INSTALLED.*/INSTALLED/' | sed "s|$tmp|TMP|g")
   echo "$label: status $status, profile $verdict, backups $(ls "$backups"/paper-arm.*.json 2> /dev/null | wc -l), $reason"
 }
 
