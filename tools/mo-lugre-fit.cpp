@@ -95,7 +95,7 @@ int main(int argc, char** argv) {
   app.add_option("--fix", fix_text, "hold parameters at values, e.g. sigma0=1e5")->type_name("LIST");
   app.add_option("--threads", threads, "joints fitted at once (default: one per core)")->type_name("N");
   app.add_option("--mirror", mirror_logs, "check the fit against a trajectory and its mirror (paper's ref. 37)")
-      ->expected(2)->type_name("FORWARD MIRROR");
+      ->expected(2)->type_name("FILE");
 
   return tool.run(argc, argv, [&] {
     const auto start = std::chrono::steady_clock::now();

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "momentum/stream/error.hpp"
+#include "random.hpp"
 
 namespace momentum::fit {
 
@@ -537,32 +538,62 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     fit.covariance_note = "the Jacobian could not be evaluated";
   }
 
-  // Sensitivity to sub-sample dynamics: the first-order parameter shift that makes the model
-  // follow its own finer discretisation, dx = lstsq(J, y_fine - y) over the determined
-  // parameters (J is d(r - y)/dx, so a change dy of the model is absorbed by J dx = dy).
+  // Systematic sensitivities, as first-order parameter shifts: the change dx that absorbs a
+  // change dy of the model, dx = lstsq(J, dy) over the determined parameters (J is
+  // d(r - y)/dx, so J dx = dy).
+  //  - sub-sample dynamics: dy = the model's own finer discretisation minus itself;
+  //  - velocity noise (errors in the variable that drives the model): dy = the mean change of
+  //    the model when the measured velocity gets a second dose of its own noise (4 draws).
+  //    Noise in dq biases a nonlinear model in proportion to its variance, so the shift from
+  //    one dose to two estimates the shift from none to one (the first step of SIMEX).
   std::vector<double> shift(nfree, std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> velocity_shift(nfree, std::numeric_limits<double>::quiet_NaN());
+  fit.velocity_noise = estimate_velocity_noise(data);
   if (jacobian.rows() > 0 && jacobian.allFinite()) {
     const auto& d = *problem.data;
-    std::vector<double> coarse, fine;
-    problem.simulate(fit.parameters, [&](std::size_t k, double y, double) {
-      if (d.scored[k]) coarse.push_back(y);
-    });
-    problem.simulate(fit.parameters, [&](std::size_t k, double y, double) {
-      if (d.scored[k]) fine.push_back(y);
-    }, 4);
+    auto counted_model = [&](const Problem& pr, int substeps) {
+      std::vector<double> y;
+      y.reserve(pr.scored);
+      pr.simulate(fit.parameters, [&](std::size_t k, double v, double) {
+        if (d.scored[k]) y.push_back(v);
+      }, substeps);
+      return y;
+    };
+    const std::vector<double> coarse = counted_model(problem, 1);
     std::vector<Eigen::Index> keep;
     for (std::size_t j = 0; j < nfree; ++j)
       if (!held[j]) keep.push_back(static_cast<Eigen::Index>(j));
     if (!keep.empty() && coarse.size() == static_cast<std::size_t>(jacobian.rows())) {
       Eigen::MatrixXd sub(jacobian.rows(), static_cast<Eigen::Index>(keep.size()));
       for (std::size_t c = 0; c < keep.size(); ++c) sub.col(static_cast<Eigen::Index>(c)) = jacobian.col(keep[c]);
+      const auto qr = sub.colPivHouseholderQr();
+      auto absorb = [&](const Eigen::VectorXd& dy, std::vector<double>& out) {
+        const Eigen::VectorXd dx = qr.solve(dy);
+        for (std::size_t c = 0; c < keep.size(); ++c) {
+          const auto j = static_cast<std::size_t>(keep[c]);
+          out[j] = dx(static_cast<Eigen::Index>(c)) * problem.scale[static_cast<std::size_t>(problem.free[j])];
+        }
+      };
+      const std::vector<double> fine = counted_model(problem, 4);
       Eigen::VectorXd dy(jacobian.rows());
       for (Eigen::Index k = 0; k < dy.size(); ++k)
         dy(k) = fine[static_cast<std::size_t>(k)] - coarse[static_cast<std::size_t>(k)];
-      const Eigen::VectorXd dx = sub.colPivHouseholderQr().solve(dy);
-      for (std::size_t c = 0; c < keep.size(); ++c) {
-        const auto j = static_cast<std::size_t>(keep[c]);
-        shift[j] = dx(static_cast<Eigen::Index>(c)) * problem.scale[static_cast<std::size_t>(problem.free[j])];
+      absorb(dy, shift);
+      if (fit.velocity_noise > 0) {
+        constexpr int kDraws = 4;
+        detail::Random rng(derive_seed(seed, 0x5ee0));
+        dy.setZero();
+        for (int draw = 0; draw < kDraws; ++draw) {
+          JointSeries noisy = data;
+          for (auto& v : noisy.dq) v += fit.velocity_noise * rng.normal();
+          const Problem perturbed(noisy, gains, kind, options);
+          const std::vector<double> y = counted_model(perturbed, 1);
+          for (Eigen::Index k = 0; k < dy.size(); ++k)
+            dy(k) += (y[static_cast<std::size_t>(k)] - coarse[static_cast<std::size_t>(k)]) / kDraws;
+        }
+        absorb(dy, velocity_shift);
+      } else {
+        std::fill(velocity_shift.begin(), velocity_shift.end(), 0.0);
       }
     }
   }
@@ -647,7 +678,10 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     e.free = true;
     e.standard_error = standard_error[j];
     e.discretization_shift = shift[j];
-    e.uncertainty = std::isfinite(shift[j]) ? std::hypot(e.standard_error, shift[j]) : e.standard_error;
+    e.velocity_noise_shift = velocity_shift[j];
+    e.uncertainty = e.standard_error;
+    for (double part : {shift[j], velocity_shift[j]})
+      if (std::isfinite(part)) e.uncertainty = std::hypot(e.uncertainty, part);
     const double lo = options.bounds.lower[u], hi = options.bounds.upper[u];
     const double near = 1e-6 * (hi - lo);
     if (e.value <= lo + near) e.at_bound = -1;
@@ -668,10 +702,14 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
              (reference > 0 ? format(" = %.3g%% of ", 100.0 * e.uncertainty / reference) +
                                   (reference == std::abs(e.value) ? "the value" : "the bound interval")
                             : std::string(" at a value of 0"));
-      const bool sub_sample = std::abs(e.discretization_shift) > e.standard_error;
-      note += sub_sample ? format(", mostly from dynamics faster than the %.4g Hz sampling",
-                                  1.0 / std::max(data.median_dt(), 1e-12))
-                         : std::string(", mostly from noise");
+      const double sub = std::isfinite(e.discretization_shift) ? std::abs(e.discretization_shift) : 0.0;
+      const double vel = std::isfinite(e.velocity_noise_shift) ? std::abs(e.velocity_noise_shift) : 0.0;
+      if (sub > e.standard_error && sub >= vel)
+        note += format(", mostly from dynamics faster than the %.4g Hz sampling", 1.0 / std::max(data.median_dt(), 1e-12));
+      else if (vel > e.standard_error)
+        note += ", mostly from the velocity noise";
+      else
+        note += ", mostly from noise in r";
       const std::string why = explain(problem, fit, i);
       if (!why.empty()) note += "; " + why;
     }

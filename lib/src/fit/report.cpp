@@ -32,6 +32,7 @@ json model_json(const ModelFit& m) {
         {"standard_error", number(e.standard_error)},
         {"uncertainty", number(e.uncertainty)},
         {"discretization_shift", number(e.discretization_shift)},
+        {"velocity_noise_shift", number(e.velocity_noise_shift)},
         {"free", e.free},
         {"at_bound", e.at_bound < 0 ? json("lower") : e.at_bound > 0 ? json("upper") : json(nullptr)},
         {"identifiable", e.identifiable},
@@ -91,13 +92,13 @@ void append_parameters(std::string& out, const ModelFit& m, const char* indent) 
       se = "(fixed)";
     else if (!std::isfinite(e.uncertainty))
       se = "+- ?";
-    else if (m.kind == friction::Kind::lugre && std::isfinite(e.discretization_shift))
-      se = printf_string("+- %-9.3g (noise %.3g, sub-sample %.3g)", e.uncertainty, e.standard_error,
-                         std::abs(e.discretization_shift));
+    else if (std::isfinite(e.discretization_shift) && std::isfinite(e.velocity_noise_shift))
+      se = printf_string("+- %-9.3g (r noise %.2g, sub-sample %.2g, dq noise %.2g)", e.uncertainty,
+                         e.standard_error, std::abs(e.discretization_shift), std::abs(e.velocity_noise_shift));
     else
       se = printf_string("+- %.3g", e.uncertainty);
     out += printf_string("%s%-7s %-12.6g ", indent, friction::kParameterNames[i], e.value);
-    out += e.note.empty() ? se : printf_string("%-44s", se.c_str());
+    out += e.note.empty() ? se : printf_string("%-58s", se.c_str());
     if (!e.note.empty()) out += "  " + e.note;
     out += '\n';
   }

@@ -115,8 +115,14 @@ struct ParameterEstimate {
   // sample: the part of the parameter that rests on dynamics faster than the sample rate
   // (LuGre's bristles at a coarse rate). NaN when not free or not computed.
   double discretization_shift = std::numeric_limits<double>::quiet_NaN();
-  // sqrt(standard_error^2 + discretization_shift^2): the one-sigma uncertainty the report
-  // quotes and the identifiability test uses. NaN when the standard error is.
+  // How far the estimate moves (first order) when the measured velocity that drives the model
+  // gets a second dose of its own white noise (the mean of 4 draws): the bias the velocity noise
+  // causes in a model nonlinear in the velocity (errors in variables). 0 for noise-free
+  // velocity; NaN when not free or not computed.
+  double velocity_noise_shift = std::numeric_limits<double>::quiet_NaN();
+  // sqrt(standard_error^2 + discretization_shift^2 + velocity_noise_shift^2): the one-sigma
+  // uncertainty the report quotes and the identifiability test uses. NaN when the standard
+  // error is.
   double uncertainty = std::numeric_limits<double>::quiet_NaN();
   int at_bound = 0;             // -1 at the lower bound, +1 at the upper bound, 0 inside
   bool identifiable = true;     // false: flagged, see `note`
@@ -143,6 +149,7 @@ struct ModelFit {
   // the variances by (1 for white residuals).
   double condition_number = std::numeric_limits<double>::quiet_NaN();
   double autocorrelation_factor = 1;
+  double velocity_noise = 0;  // estimated white noise of the measured velocity, rad/s
   bool covariance_ok = false;
   std::string covariance_note;                       // why it is missing or dubious
   std::uint64_t evaluations = 0;                     // global + polish residual evaluations
