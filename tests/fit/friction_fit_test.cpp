@@ -233,6 +233,10 @@ TEST(FrictionFit, ParallelJointsMatchSequential) {
     for (int i = 0; i < 6; ++i)
       EXPECT_TRUE(same_bits(value(one[j].model.parameters, i), value(two[j].model.parameters, i)));
     EXPECT_TRUE(same_bits(one[j].static_model->metrics.cost, two[j].static_model->metrics.cost));
+    // And equal to fitting the joint alone with its derived seed.
+    const auto alone = fit::fit_joint(series[j], gains[j], o, fit::derive_seed(o.global.genetic.seed, j + 1));
+    EXPECT_TRUE(same_bits(alone.model.metrics.cost, two[j].model.metrics.cost));
+    EXPECT_TRUE(same_bits(alone.static_model->metrics.cost, two[j].static_model->metrics.cost));
   }
 }
 

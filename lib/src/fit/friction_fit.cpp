@@ -764,9 +764,12 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
   JointFit result;
   result.joint = data.joint;
   result.model = fit_model(data, gains, options.kind, options, derive_seed(seed, 0), data.joint, progress);
-  if (options.kind == Kind::lugre && options.compare_static)
+  result.model_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (options.kind == Kind::lugre && options.compare_static) {
     result.static_model =
         fit_model(data, gains, Kind::stribeck, options, derive_seed(seed, 1), data.joint, progress);
+    result.static_seconds = result.static_model->seconds;
+  }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
@@ -779,29 +782,58 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
     throw std::invalid_argument("friction fit: one set of gains per joint needed");
   std::string why;
   if (!options.is_valid(&why)) throw std::invalid_argument("friction fit: " + why);
+  for (std::size_t i = 0; i < data.size(); ++i) {
+    if (!gains[i].is_valid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
+    if (data[i].scored_count() == 0)
+      throw Error("joint " + std::to_string(data[i].joint) + ": no sample to fit");
+  }
+  // One task per model and joint (the chosen models first: they take longest), so that three
+  // joints with their static comparisons spread evenly over two cores. Each task's seed
+  // depends only on the joint and the model, as in fit_joint.
+  struct Task {
+    std::size_t joint;
+    bool static_model;
+  };
+  std::vector<Task> tasks;
+  for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, false});
+  if (options.kind == Kind::lugre && options.compare_static)
+    for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, true});
   std::vector<JointFit> results(data.size());
-  std::vector<std::exception_ptr> errors(data.size());
+  std::vector<std::exception_ptr> errors(tasks.size());
   std::atomic<std::size_t> next{0};
   auto work = [&] {
-    for (std::size_t i = next++; i < data.size(); i = next++) {
+    for (std::size_t n = next++; n < tasks.size(); n = next++) {
+      const auto& task = tasks[n];
+      const auto& d = data[task.joint];
+      const std::uint64_t seed = derive_seed(options.global.genetic.seed, static_cast<std::uint64_t>(d.joint));
       try {
-        results[i] = fit_joint(data[i], gains[i], options,
-                               derive_seed(options.global.genetic.seed,
-                                           static_cast<std::uint64_t>(data[i].joint)),
-                               progress);
+        const auto start = std::chrono::steady_clock::now();
+        ModelFit fit = fit_model(d, gains[task.joint], task.static_model ? Kind::stribeck : options.kind, options,
+                                 derive_seed(seed, task.static_model ? 1 : 0), d.joint, progress);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        auto& r = results[task.joint];  // each slot written by one task only
+        if (task.static_model) {
+          r.static_model = std::move(fit);
+          r.static_seconds = seconds;
+        } else {
+          r.joint = d.joint;
+          r.model = std::move(fit);
+          r.model_seconds = seconds;
+        }
       } catch (...) {
-        errors[i] = std::current_exception();
+        errors[n] = std::current_exception();
       }
     }
   };
   if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const auto count = std::min<std::size_t>(static_cast<std::size_t>(threads), data.size());
+  const auto count = std::min<std::size_t>(static_cast<std::size_t>(threads), tasks.size());
   std::vector<std::thread> pool;
   for (std::size_t i = 1; i < count; ++i) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
   for (auto& e : errors)
     if (e) std::rethrow_exception(e);
+  for (auto& r : results) r.seconds = r.model_seconds + r.static_seconds;
   return results;
 }
 

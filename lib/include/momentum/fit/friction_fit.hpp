@@ -161,7 +161,9 @@ struct JointFit {
   int joint = 0;
   ModelFit model;
   std::optional<ModelFit> static_model;
-  double seconds = 0;
+  double seconds = 0;         // CPU-thread time spent on this joint (both models), s
+  double model_seconds = 0;   // of which the chosen model
+  double static_seconds = 0;  // and the static model
 };
 
 // Progress of one joint's fit, from the worker thread fitting it.
@@ -190,8 +192,10 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
                    std::uint64_t seed, const JointProgressCallback& progress = {});
 
 // Fits every joint of `data` (gains[i] for data[i]) on `threads` threads (0: one per core),
-// joint i seeded with derive_seed(options.global.genetic.seed, data[i].joint), so the result
-// does not depend on the thread count or on scheduling. Exceptions from a worker are rethrown.
+// the chosen model and the static comparison of each joint as separate tasks; joint i seeded
+// with derive_seed(options.global.genetic.seed, data[i].joint) as fit_joint is, so the result
+// equals fit_joint's and does not depend on the thread count or on scheduling. Throws as
+// fit_joint does; exceptions from a worker are rethrown.
 std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const std::vector<observer::Gains>& gains,
                                  const FitOptions& options, int threads = 0,
