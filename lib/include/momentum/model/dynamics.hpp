@@ -85,7 +85,6 @@ struct DataTpl {
   std::vector<Vector3> accel;      // linear acceleration of the origin (inverse dynamics)
   std::vector<Vector3> linear;     // per-body linear momentum or force
   std::vector<Vector3> angular;    // per-body angular momentum or moment about world origin
-  std::vector<Vector3> first_moment;  // per-body m c (world)
 
   // The momentum pass (momentum_and_beta) runs in body frames rotated so that every joint axis
   // is z (frame i' = body frame i times A_i, A_i e_z = axis_i), which makes the joint rotation

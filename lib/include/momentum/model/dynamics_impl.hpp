@@ -206,7 +206,6 @@ DataTpl<S>::DataTpl(const Model& model) {
   accel.assign(n, Vector3::Zero());
   linear.assign(n, Vector3::Zero());
   angular.assign(n, Vector3::Zero());
-  first_moment.assign(n, Vector3::Zero());
   tip_rotation_world = Matrix3::Identity();
   tip_position_world = Vector3::Zero();
 }
