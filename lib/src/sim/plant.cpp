@@ -19,7 +19,7 @@ bool parse_integrator(const std::string& name, Integrator* integrator) {
 }
 
 Plant::Plant(const model::Model& model, const friction::FrictionModel* friction, Integrator integrator)
-    : model_(&model), data_(model), integrator_(integrator) {
+    : model_(&model), data_(model), integrator_(integrator), ldlt_(model.nq) {
   const int n = model.nq;
   if (friction) {
     if (friction->joints.size() != static_cast<std::size_t>(n))
@@ -43,7 +43,6 @@ Plant::Plant(const model::Model& model, const friction::FrictionModel* friction,
   q_stage_.setZero(n);
   dq_stage_.setZero(n);
   M_.setZero(n, n);
-  ldlt_ = Eigen::LDLT<Eigen::MatrixXd>(n);
 }
 
 void Plant::reset(const Eigen::VectorXd& q, const Eigen::VectorXd& dq) {
