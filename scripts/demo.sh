@@ -25,10 +25,17 @@ grep -E "^joint|^  (sigma|tau|w_s)|^  rms" fit-report.txt
 
 for rate in 125 1000; do
   echo "== $rate Hz: thresholds from one hour of collision-free motion"
+  set +e
   mo-sim -p "$arm" --trajectory paper --rate "$rate" --duration 3600 --seed 2 --output-format bin |
     mo-observe -p fitted.json --order 1 --k1 50 |
-    mo-calibrate -p fitted.json -o "calibrated-$rate.json" 2> "calibration-$rate.txt" ||
-    { cat "calibration-$rate.txt" >&2; exit 1; }
+    mo-calibrate -p fitted.json -o "calibrated-$rate.json" 2> "calibration-$rate.txt"
+  statuses=("${PIPESTATUS[@]}")
+  set -e
+  if [[ ${statuses[*]} != "0 0 0" ]]; then
+    cat "calibration-$rate.txt" >&2
+    echo "demo: calibration failed (exit statuses of mo-sim, mo-observe, mo-calibrate: ${statuses[*]})" >&2
+    exit 1
+  fi
   grep -E "^(signal|mu |r )" "calibration-$rate.txt"
 
   echo "== $rate Hz: 50 random collisions"

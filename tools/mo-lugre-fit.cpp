@@ -179,8 +179,8 @@ int main(int argc, char** argv) {
     if (current) options.friction = current->options;
     select.gap_factor = observer_options.gap_factor;
     std::string why;
-    if (!options.is_valid(&why)) throw cli::UsageError(why);
-    if (!select.is_valid(&why)) throw cli::UsageError(why);
+    if (!options.IsValid(&why)) throw cli::UsageError(why);
+    if (!select.IsValid(&why)) throw cli::UsageError(why);
     const std::vector<observer::Gains> robot_gains = observer_options.joint_gains(robot.nq);
 
     // The data: every log, appended joint by joint.

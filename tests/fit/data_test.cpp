@@ -111,7 +111,7 @@ TEST(ReadSeries, Errors) {
   o.window_begin = 2;
   o.window_end = 1;
   std::string why;
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   EXPECT_THROW(read("t,dq1,r1\n0,1,1\n", o), momentum::Error);
 }
 

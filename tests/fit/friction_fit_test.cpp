@@ -322,20 +322,20 @@ TEST(FrictionFit, NoReversalMeansNoBristleParameters) {
 TEST(FrictionFit, RejectsInvalidOptions) {
   fit::FitOptions o;
   std::string why;
-  EXPECT_TRUE(o.is_valid(&why)) << why;
+  EXPECT_TRUE(o.IsValid(&why)) << why;
   o.bounds.lower[5] = 0;  // w_s must stay positive
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   o = {};
   o.bounds.upper[3] = o.bounds.lower[3];
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   o = {};
   o.fixed[4] = -1.0;
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   o = {};
   o.kind = mf::Kind::coulomb_viscous;
   o.fixed[2] = 1.0;
   o.fixed[3] = 1.0;
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("nothing to fit"), std::string::npos);
   const auto data = make_synthetic(kTable1[0], kFirstOrder, SyntheticOptions{});
   EXPECT_THROW(fit::fit_joint(data.series, kFirstOrder, o, 1), std::invalid_argument);

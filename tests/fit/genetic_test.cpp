@@ -158,15 +158,15 @@ TEST(Genetic, ReproducibleInParallelThreads) {
 TEST(Genetic, RejectsInvalidOptions) {
   fit::GeneticOptions o;
   std::string why;
-  EXPECT_TRUE(o.is_valid(&why));
+  EXPECT_TRUE(o.IsValid(&why));
   o.population = 3;
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   o = {};
   o.elite = o.population;
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   o = {};
   o.crossover = 1.5;
-  EXPECT_FALSE(o.is_valid(&why));
+  EXPECT_FALSE(o.IsValid(&why));
   EXPECT_THROW(fit::minimize_genetic(rastrigin, fit::Bounds{{0.0}, {1.0}}, o), std::invalid_argument);
   EXPECT_THROW(fit::minimize_genetic(rastrigin, fit::Bounds{{1.0}, {1.0}}, {}), std::invalid_argument);
   EXPECT_THROW(fit::minimize_genetic(rastrigin, fit::Bounds{{0.0}, {INFINITY}}, {}), std::invalid_argument);

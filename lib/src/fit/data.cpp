@@ -22,7 +22,7 @@ double JointSeries::median_dt() const {
   return *mid;
 }
 
-bool SelectOptions::is_valid(std::string* why) const {
+bool SelectOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& text) {
     if (why) *why = text;
     return false;
@@ -85,7 +85,7 @@ std::size_t exclude_slow_samples(JointSeries& s, double min_speed, double settle
 
 std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& options) {
   std::string why;
-  if (!options.is_valid(&why)) throw Error(in.name() + ": " + why);
+  if (!options.IsValid(&why)) throw Error(in.name() + ": " + why);
   const std::size_t t_col = in.require("t");
   std::vector<int> joints = options.joints;
   if (joints.empty()) {

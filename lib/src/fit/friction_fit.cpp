@@ -55,7 +55,7 @@ GeneticOptions quick_search() {
   return o;
 }
 
-bool PolishOptions::is_valid(std::string* why) const {
+bool PolishOptions::IsValid(std::string* why) const {
   auto fail = [&](const char* text) {
     if (why) *why = text;
     return false;
@@ -84,14 +84,14 @@ std::vector<int> free_parameters(const FitOptions& o, Kind kind) {
 
 }  // namespace
 
-bool FitOptions::is_valid(std::string* why) const {
+bool FitOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& text) {
     if (why) *why = text;
     return false;
   };
   if (!friction.is_valid(why)) return false;
-  if (!global.is_valid(why)) return false;
-  if (!polish.is_valid(why)) return false;
+  if (!global.IsValid(why)) return false;
+  if (!polish.IsValid(why)) return false;
   if (!(identifiability_threshold > 0)) return fail("identifiability threshold must be > 0");
   std::vector<Kind> kinds{kind};
   if (kind == Kind::lugre && compare_static) kinds.push_back(Kind::stribeck);
@@ -756,7 +756,7 @@ FitMetrics evaluate_fit(const JointSeries& data, const observer::Gains& gains, K
 JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const FitOptions& options,
                    std::uint64_t seed, const JointProgressCallback& progress) {
   std::string why;
-  if (!options.is_valid(&why)) throw std::invalid_argument("friction fit: " + why);
+  if (!options.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
   if (!gains.is_valid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
   if (data.scored_count() == 0)
     throw Error("joint " + std::to_string(data.joint) + ": no sample to fit");
@@ -781,7 +781,7 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
   if (gains.size() != data.size())
     throw std::invalid_argument("friction fit: one set of gains per joint needed");
   std::string why;
-  if (!options.is_valid(&why)) throw std::invalid_argument("friction fit: " + why);
+  if (!options.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
   for (std::size_t i = 0; i < data.size(); ++i) {
     if (!gains[i].is_valid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
     if (data[i].scored_count() == 0)

@@ -11,7 +11,7 @@
 
 namespace momentum::fit {
 
-bool Bounds::is_valid(std::string* why) const {
+bool Bounds::IsValid(std::string* why) const {
   auto fail = [&](const std::string& text) {
     if (why) *why = text;
     return false;
@@ -37,7 +37,7 @@ bool Bounds::contains(std::span<const double> x) const {
   return true;
 }
 
-bool GeneticOptions::is_valid(std::string* why) const {
+bool GeneticOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& text) {
     if (why) *why = text;
     return false;
@@ -106,8 +106,8 @@ double mutate_gene(double y, double lo, double hi, double eta, detail::Random& r
 GlobalSummary minimize_genetic(const CostFunction& cost, const Bounds& bounds,
                                const GeneticOptions& options) {
   std::string why;
-  if (!options.is_valid(&why)) throw std::invalid_argument("genetic algorithm: " + why);
-  if (!bounds.is_valid(&why)) throw std::invalid_argument("genetic algorithm: " + why);
+  if (!options.IsValid(&why)) throw std::invalid_argument("genetic algorithm: " + why);
+  if (!bounds.IsValid(&why)) throw std::invalid_argument("genetic algorithm: " + why);
   const auto start = std::chrono::steady_clock::now();
   const std::size_t d = bounds.size();
   const auto P = static_cast<std::size_t>(options.population);

@@ -122,7 +122,7 @@ bool parse_method(const std::string& name, GlobalMethod* method) {
   return false;
 }
 
-bool GlobalOptions::is_valid(std::string* why) const { return genetic.is_valid(why); }
+bool GlobalOptions::IsValid(std::string* why) const { return genetic.IsValid(why); }
 
 std::uint64_t GlobalOptions::nlopt_budget() const {
   if (max_evaluations > 0) return max_evaluations;
@@ -134,8 +134,8 @@ std::uint64_t GlobalOptions::nlopt_budget() const {
 GlobalSummary minimize_global(const CostFunction& cost, const Bounds& bounds,
                               const GlobalOptions& options) {
   std::string why;
-  if (!options.is_valid(&why)) throw std::invalid_argument("global search: " + why);
-  if (!bounds.is_valid(&why)) throw std::invalid_argument("global search: " + why);
+  if (!options.IsValid(&why)) throw std::invalid_argument("global search: " + why);
+  if (!bounds.IsValid(&why)) throw std::invalid_argument("global search: " + why);
   if (options.method == GlobalMethod::ga) return minimize_genetic(cost, bounds, options.genetic);
   return minimize_nlopt(cost, bounds, options);
 }

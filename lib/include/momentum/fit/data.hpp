@@ -44,7 +44,7 @@ struct SelectOptions {
 
   // False (reason in `why`) for a negative skip, an empty or reversed window, joints < 1, or
   // gap_factor <= 1.
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
 };
 
 // Appends `more` (the same joint from another log) to `into`: its times are shifted to follow

@@ -65,7 +65,7 @@ struct PolishOptions {
   int max_iterations = 100;          // trust-region iterations, >= 1
   double function_tolerance = 1e-12; // relative cost change that stops it, > 0
   double parameter_tolerance = 1e-12;  // relative step that stops it, > 0
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
 };
 
 // Everything one joint's fit needs besides its data.
@@ -75,7 +75,7 @@ struct FitOptions {
   // "friction" section); the fit evaluates the model exactly as the observer will.
   friction::Options friction;
   ParameterBounds bounds = paper_bounds();
-  // Parameters held at a value instead of fitted (still within sense: see is_valid).
+  // Parameters held at a value instead of fitted (still within sense: see IsValid).
   std::array<std::optional<double>, kParameterCount> fixed{};
   GlobalOptions global;    // method, genetic settings (paper defaults), seed
   PolishOptions polish;
@@ -90,7 +90,7 @@ struct FitOptions {
   // lower < upper for a free parameter, bounds that allow a parameter the model needs
   // positive to be <= 0 (sigma0, tau_c and tau_s, w_s for LuGre/Stribeck), a fixed value
   // that is invalid the same way, or no free parameter left.
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
 };
 
 // Goodness of fit over the counted samples of one joint.

@@ -29,7 +29,7 @@ struct Bounds {
   std::size_t size() const { return lower.size(); }
   // Same sizes, at least one dimension, every pair finite with lower < upper; otherwise false
   // with the reason (naming the 0-based index) in `why`, when non-null.
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
   // x clamped into the box (x must have size() entries).
   void clamp(std::span<double> x) const;
   // True when every x[i] lies in [lower[i], upper[i]].
@@ -79,7 +79,7 @@ struct GeneticOptions {
   ProgressCallback on_generation;  // optional
 
   // False with the reason in `why` (when non-null) for a value outside the ranges above.
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
 };
 
 // What a global search returns.
@@ -122,7 +122,7 @@ struct GlobalOptions {
   GeneticOptions genetic;
   std::uint64_t max_evaluations = 0;  // NLopt budget; 0: population * generations * restarts
 
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
   // The NLopt evaluation budget these options give.
   std::uint64_t nlopt_budget() const;
 };
