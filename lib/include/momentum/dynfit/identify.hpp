@@ -1,0 +1,178 @@
+// Identification of corrections to a chain's inertial parameters from collision-free motion,
+// in the momentum observer's filtered form, so that no acceleration is ever differentiated:
+//
+//   tau_m - tau_f = dp/dt + beta,   p = Y_p theta + B dq,   beta = Y_b theta      (regressor.hpp)
+//
+// Both sides go through the observer's unit-gain low-pass F = K/(s+K) (first-order hold, each
+// interval's own dt, as observer/filter.hpp), with F[dp/dt] = K (p - F[p]):
+//
+//   F[tau_m] - K (B dq - F[B dq]) = (K (Y_p - F[Y_p]) + F[Y_b]) theta + F[tau_f]
+//
+// The friction tau_f is a smoothed Coulomb plus viscous term per joint, fitted jointly:
+// tau_f,j = c_j tanh(dq_j / coulomb_speed) + v_j dq_j. The unknown is the correction delta =
+// theta - theta_nominal of the nominal URDF's parameters. Normal equations are accumulated per
+// sample (memory independent of the log length); friction is eliminated (Schur complement);
+// the rest is column-scaled and eigen-decomposed: directions with singular value above
+// rank_tolerance times the largest are the identifiable (base) combinations, the others keep
+// the nominal value (the minimum-norm correction, i.e. regularised toward zero).
+//
+// Held-out data: the log is cut into segments of holdout_segment seconds, and every
+// holdout_every-th one is not used for fitting; per joint the RMS of the filtered equation
+// error there is reported before correction (nominal model, friction fitted alone) and after.
+//
+// Uncertainty: the filtered equation errors are correlated in time (the filter's memory, and
+// friction-model error), so the covariance is the cluster-robust sandwich over blocks of the
+// log (at least block seconds; neighbouring blocks are merged to keep at most 64 of them).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "momentum/model/dynamics.hpp"
+#include "momentum/model/model.hpp"
+
+namespace momentum::dynfit {
+
+struct IdentifyOptions {
+  // Gain K of the low-pass F = K / (s + K), 1/s (> 0): the observer's k1 is the natural choice.
+  double filter_gain = 50.0;
+  // Identify only mass and first moment (m, m c) of each body; rotational inertias stay
+  // nominal. For logs of slow motion, where only gravity is excited.
+  bool gravity_only = false;
+  // Fit Coulomb + viscous friction per joint jointly with the inertial parameters. Off: the
+  // inputs are assumed to be friction-compensated already.
+  bool fit_friction = true;
+  // Speed scale of the smoothed Coulomb term tanh(dq / coulomb_speed), rad/s (> 0).
+  double coulomb_speed = 0.02;
+  // Relative singular value below which a combination counts as not identifiable (0 < tol < 1).
+  double rank_tolerance = 1e-3;
+  // Samples within settle_time_constants / K seconds of a (re)start do not count (>= 0): the
+  // filters start in steady state, which is wrong by the filtered dp/dt of that instant.
+  double settle_time_constants = 8.0;
+  // A step longer than gap_factor times the typical step restarts the filters (> 1).
+  double gap_factor = 5.0;
+  // Held-out validation: segments of holdout_segment seconds (> 0), every holdout_every-th
+  // (>= 2) held out; 0 holds nothing out.
+  double holdout_segment = 10.0;
+  int holdout_every = 5;
+  // Shortest block of the sandwich covariance, s (> 0).
+  double block = 1.0;
+
+  // False (with the reason in `why`, when non-null) for values outside the ranges above.
+  bool IsValid(std::string* why) const;
+};
+
+// One identifiable combination: value = direction . theta (theta: all 10 nq parameters).
+struct BaseParameter {
+  Eigen::VectorXd direction;     // 10 nq, in 1 / parameter unit
+  double nominal = 0;            // direction . theta_nominal
+  double value = 0;              // direction . (theta_nominal + delta), before projection
+  double standard_error = 0;
+  double singular_value = 0;     // relative to the largest (1 for the best excited)
+};
+
+// One standard parameter (body, index 0..9).
+struct ParameterEstimate {
+  int body = 0;                  // 0-based
+  int index = 0;                 // into parameter_names()
+  double nominal = 0;
+  double value = 0;              // nominal + delta, after projection
+  double standard_error = 0;     // of the unprojected estimate (0 when not fitted)
+  // Share of the parameter that the identified combinations determine: 1 identified on its
+  // own, 0 not excited (kept at nominal), in between: only in combination with others.
+  double identifiability = 0;
+  bool fitted = false;           // false: not a column of this fit (e.g. inertias, gravity-only)
+};
+
+struct IdentifySummary {
+  int nq = 0;
+  bool gravity_only = false;
+  bool fit_friction = true;
+  Eigen::VectorXd nominal;       // 10 nq standard parameters of the nominal model
+  Eigen::VectorXd delta;         // 10 nq correction, physically consistent (after projection)
+  Eigen::VectorXd delta_unprojected;
+  Eigen::MatrixXd covariance;    // of delta_unprojected, 10 nq square (zero where not fitted)
+  std::vector<BaseParameter> base;
+  std::vector<ParameterEstimate> parameters;
+  int rank = 0;                  // identified combinations
+  int columns = 0;               // inertial columns fitted
+  double condition_number = 0;   // of the column-scaled regressor over the identified part
+  double smallest_singular_value = 0;  // relative, over all fitted columns (rank deficiency)
+  // Friction per joint: Coulomb (Nm) and viscous (Nm s/rad) with standard errors, fitted
+  // jointly with the correction.
+  Eigen::VectorXd coulomb, viscous, coulomb_se, viscous_se;
+  // Bodies whose estimate was not physical, and what was done.
+  std::vector<std::string> projections;
+  // RMS per joint of the filtered equation error, Nm: before = nominal model with friction
+  // fitted alone; after = corrected model with the joint fit; current = a correction passed to
+  // solve() (e.g. the profile's) with friction fitted alone. On held-out data when there is
+  // any (held_out true), else on the fitting data.
+  bool held_out = false;
+  Eigen::VectorXd rms_before, rms_after, rms_current;
+  std::uint64_t samples_fit = 0, samples_held_out = 0, samples_skipped = 0;
+  double seconds_fit = 0, seconds_held_out = 0;
+  int restarts = 0;              // filter restarts (logs, gaps, bad values)
+  int blocks = 0;                // clusters of the covariance
+};
+
+// Accumulates samples of one or more logs and solves. Memory: O((10 nq)^2), independent of
+// the number of samples.
+class Identifier {
+ public:
+  // Throws momentum::Error when the options are invalid.
+  Identifier(const model::Model& nominal, const IdentifyOptions& options);
+
+  // One sample: t (s, increasing), q (rad), dq (rad/s), tau_m (Nm), nq each. A non-finite
+  // value or a time that does not increase skips the sample and restarts the filters.
+  void add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
+           const Eigen::VectorXd& tau_m);
+  // The next sample begins a new log: filters restart, time may start anew.
+  void restart();
+
+  std::uint64_t samples_fit() const;
+  std::uint64_t samples_held_out() const;
+
+  // Solves. `current` (10 nq, may be null): another correction to evaluate on the held-out
+  // data (IdentifySummary::rms_current). Throws momentum::Error when no sample was counted.
+  IdentifySummary solve(const Eigen::VectorXd* current = nullptr) const;
+
+ private:
+  struct Block {
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+  };
+  struct JointStats {
+    Eigen::MatrixXd G;
+    Eigen::VectorXd c;
+    double s = 0;
+    std::uint64_t count = 0;
+  };
+  void begin_block();
+  void accumulate(const Eigen::MatrixXd& Z, const Eigen::VectorXd& e, bool held_out);
+
+  const model::Model& model_;
+  IdentifyOptions options_;
+  model::Data data_;
+  int n_ = 0, fitted_ = 0, columns_ = 0;
+  std::vector<int> selected_;            // inertial columns fitted (indices into theta)
+  Eigen::VectorXd theta_nominal_;
+  // Filter states and previous inputs.
+  bool started_ = false, have_time_ = false;
+  double t_previous_ = 0, t_start_ = 0, t_log_ = 0, typical_dt_ = 0;
+  Eigen::MatrixXd Yp_, Yb_, Fp_, Fb_, Yp_prev_, Yb_prev_;
+  Eigen::MatrixXd friction_, friction_prev_, Ff_;  // n x 2: tanh, dq
+  Eigen::VectorXd y_, y_prev_, Fy_;                 // tau_m - K B dq part handled separately
+  Eigen::VectorXd pk_, pk_prev_, Fpk_;              // known momentum B dq
+  // Normal equations.
+  std::vector<Block> blocks_;
+  double block_length_ = 0, block_start_ = 0;
+  std::vector<JointStats> fit_joint_, held_joint_;
+  std::uint64_t skipped_ = 0;
+  int restarts_ = 0;
+  double seconds_fit_ = 0, seconds_held_ = 0;
+};
+
+}  // namespace momentum::dynfit
