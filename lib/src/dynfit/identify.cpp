@@ -42,38 +42,39 @@ Eigen::MatrixXd symmetric(const Eigen::MatrixXd& lower) {
   return full;
 }
 
-// Projects one body's standard parameters onto physical ones: mass at least 5% of the
-// nominal, principal moments about the com clipped to be positive and to satisfy the triangle
-// inequality. Returns a description of what changed.
-std::string project_body(model::StandardParameters& theta, const model::StandardParameters& nominal) {
-  std::string note;
-  double m = theta[0];
-  Eigen::Vector3d c = nominal.segment<3>(1) / nominal[0];
-  if (m > 0) c = theta.segment<3>(1) / m;
-  if (!(m >= 0.05 * nominal[0])) {
-    note += "mass " + std::to_string(m) + " kg raised to 5% of nominal; ";
-    m = 0.05 * nominal[0];
-  }
+// The pseudo-inertia J = [[Sigma, h], [h^T, m]], Sigma = tr(I_O)/2 E - I_O, h = m c, of a
+// body's standard parameters: the body is physical exactly when J is positive definite
+// (Wensing, Kim, Slotine 2017), and the map is linear, so the physical set is convex.
+Eigen::Matrix4d pseudo_inertia(const model::StandardParameters& t) {
   Eigen::Matrix3d origin;
-  origin << theta[4], theta[5], theta[6], theta[5], theta[7], theta[8], theta[6], theta[8],
-      theta[9];
-  const Eigen::Matrix3d cc = c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose();
-  const Eigen::Matrix3d about_com = origin - theta[0] * cc;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(about_com);
-  Eigen::Vector3d l = eig.eigenvalues();
-  const double floor = 1e-3 * std::max(std::abs(l.maxCoeff()), 1e-9);
-  for (int i = 0; i < 3; ++i) l[i] = std::max(l[i], floor);
-  std::sort(l.data(), l.data() + 3);
-  if (l[2] > l[0] + l[1]) l[2] = l[0] + l[1];
-  if ((l - eig.eigenvalues()).cwiseAbs().maxCoeff() > 0) {
-    note += "principal moments about the com clipped to physical values; ";
-  }
-  const Eigen::Matrix3d fixed = eig.eigenvectors() * l.asDiagonal() * eig.eigenvectors().transpose();
-  const Eigen::Matrix3d new_origin = fixed + m * cc;
-  theta << m, m * c.x(), m * c.y(), m * c.z(), new_origin(0, 0), new_origin(0, 1),
-      new_origin(0, 2), new_origin(1, 1), new_origin(1, 2), new_origin(2, 2);
-  if (note.size() >= 2) note.resize(note.size() - 2);
-  return note;
+  origin << t[4], t[5], t[6], t[5], t[7], t[8], t[6], t[8], t[9];
+  Eigen::Matrix4d J;
+  J.topLeftCorner<3, 3>() = 0.5 * origin.trace() * Eigen::Matrix3d::Identity() - origin;
+  J.topRightCorner<3, 1>() = t.segment<3>(1);
+  J.bottomLeftCorner<1, 3>() = t.segment<3>(1).transpose();
+  J(3, 3) = t[0];
+  return J;
+}
+
+model::StandardParameters from_pseudo_inertia(const Eigen::Matrix4d& J) {
+  const Eigen::Matrix3d sigma = J.topLeftCorner<3, 3>();
+  const Eigen::Matrix3d origin = sigma.trace() * Eigen::Matrix3d::Identity() - sigma;
+  model::StandardParameters t;
+  t << J(3, 3), J(0, 3), J(1, 3), J(2, 3), origin(0, 0), origin(0, 1), origin(0, 2), origin(1, 1),
+      origin(1, 2), origin(2, 2);
+  return t;
+}
+
+// Nearest (Frobenius norm of J) parameters whose pseudo-inertia has eigenvalues >= floor.
+model::StandardParameters project_physical(const model::StandardParameters& t, double floor) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(pseudo_inertia(t));
+  const Eigen::Vector4d l = eig.eigenvalues().cwiseMax(floor);
+  return from_pseudo_inertia(eig.eigenvectors() * l.asDiagonal() * eig.eigenvectors().transpose());
+}
+
+double smallest_pseudo_eigenvalue(const model::StandardParameters& t) {
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(pseudo_inertia(t), Eigen::EigenvaluesOnly)
+      .eigenvalues()[0];
 }
 
 }  // namespace
@@ -375,17 +376,81 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
     s.base.push_back(base);
   }
 
-  // Physical consistency, body by body.
+  // Gravity only: the inertias about the centres of mass stay nominal (the fit moved the
+  // masses and centres of mass, so the inertias about the body origins follow).
   s.delta = s.delta_unprojected;
-  for (int k = 0; k < n; ++k) {
-    const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
-    model::StandardParameters theta = nominal + s.delta.segment<kBodyParameters>(body_offset(k));
-    model::Body probe = model_.bodies[static_cast<std::size_t>(k)];
-    std::string why;
-    if (model::set_standard_parameters(probe, theta, &why)) continue;
-    const std::string note = project_body(theta, nominal);
-    s.projections.push_back(model_.bodies[static_cast<std::size_t>(k)].name + ": " + why + "; " + note);
-    s.delta.segment<kBodyParameters>(body_offset(k)) = theta - nominal;
+  if (options_.gravity_only) {
+    for (int k = 0; k < n; ++k) {
+      const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
+      model::StandardParameters theta = nominal + s.delta.segment<kBodyParameters>(body_offset(k));
+      model::Body body = model_.bodies[static_cast<std::size_t>(k)];
+      if (theta[0] > 0) {
+        body.mass = theta[0];
+        body.com = theta.segment<3>(1) / theta[0];
+        s.delta.segment<kBodyParameters>(body_offset(k)) = model::standard_parameters(body) - nominal;
+      }
+    }
+  }
+  // Physical consistency: where the minimum-norm correction is not physical, move along the
+  // directions the data do not determine. Alternating projections between the affine set of
+  // corrections with the identified combinations and the convex set of physical bodies
+  // (pseudo-inertia positive definite, with a margin of 1e-3 of the nominal's smallest
+  // eigenvalue); both contain the truth when the model is right.
+  auto physical = [&](const Eigen::VectorXd& delta, std::vector<int>* bad) {
+    bool ok = true;
+    for (int k = 0; k < n; ++k) {
+      const model::StandardParameters theta =
+          (theta_nominal_ + delta).segment<kBodyParameters>(body_offset(k));
+      model::Body probe;
+      if (!model::set_standard_parameters(probe, theta, nullptr)) {
+        ok = false;
+        if (bad) bad->push_back(k);
+      }
+    }
+    return ok;
+  };
+  std::vector<int> unphysical;
+  if (!physical(s.delta, &unphysical)) {
+    Eigen::VectorXd floors(n);
+    for (int k = 0; k < n; ++k) {
+      floors[k] = 1e-3 * smallest_pseudo_eigenvalue(theta_nominal_.segment<kBodyParameters>(body_offset(k)));
+    }
+    Eigen::VectorXd target_sel(pi);  // identified combinations in scaled coordinates
+    const Eigen::VectorXd scaled_delta = scale.cwiseProduct(delta_sel);
+    target_sel = V.transpose() * scaled_delta;
+    Eigen::VectorXd d = s.delta;
+    int iterations = 0;
+    for (; iterations < 2000; ++iterations) {
+      for (int k = 0; k < n; ++k) {
+        const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
+        const model::StandardParameters theta = nominal + d.segment<kBodyParameters>(body_offset(k));
+        d.segment<kBodyParameters>(body_offset(k)) = project_physical(theta, floors[k]) - nominal;
+      }
+      Eigen::VectorXd ds(pi);
+      for (int j = 0; j < pi; ++j) ds[j] = scale[j] * d[selected_[static_cast<std::size_t>(j)]];
+      const Eigen::VectorXd miss = target_sel.head(s.rank) - V.transpose() * ds;
+      const bool kept_all = miss.norm() <= 1e-9 * (1.0 + target_sel.norm());
+      if (kept_all && physical(d, nullptr)) break;
+      ds += V * miss;
+      for (int j = 0; j < pi; ++j) d[selected_[static_cast<std::size_t>(j)]] = ds[j] / scale[j];
+    }
+    std::string names;
+    for (int k : unphysical) names += (names.empty() ? "" : ", ") + model_.bodies[static_cast<std::size_t>(k)].name;
+    if (!physical(d, nullptr)) {
+      // No physical point keeps every identified combination: take the physical one nearest
+      // to where the iteration ended.
+      for (int k = 0; k < n; ++k) {
+        const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
+        d.segment<kBodyParameters>(body_offset(k)) =
+            project_physical(nominal + d.segment<kBodyParameters>(body_offset(k)), floors[k]) - nominal;
+      }
+      s.projections.push_back(names + ": not physical, and no physical body keeps every identified combination; "
+                              "projected to the nearest physical parameters (the fit is worse for it)");
+    } else {
+      s.projections.push_back(names + ": minimum-norm correction not physical; moved along unidentified "
+                              "directions (" + std::to_string(iterations) + " iterations), identified combinations kept");
+    }
+    s.delta = d;
   }
 
   // Per-parameter estimates.
