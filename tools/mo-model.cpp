@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   tool.add_inputs("input stream with q<j> (dq<j>, ddq<j>); none: the chain, or stdin when it is a pipe or file");
   tool.add_stream_output();
   tool.add_profile();
+  tool.add_payload();
   bool chain = false;
   model::ModelStreamOptions options;
   auto& app = tool.app();
@@ -40,7 +41,8 @@ int main(int argc, char** argv) {
 
   return tool.run(argc, argv, [&] {
     if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
-    const model::Profile profile = model::load_profile(tool.profile());
+    model::Profile profile = model::load_profile(tool.profile());
+    model::select_payload(profile, tool.payload());
     const model::Model robot = model::build_model(profile);
     if (chain || (tool.inputs().empty() && !stdin_is_a_stream())) {
       const std::string text = model::describe_chain(robot, profile);

@@ -35,6 +35,11 @@ void Tool::add_profile(bool required) {
   if (required) option->required();
 }
 
+void Tool::add_payload() {
+  app_.add_option("--payload", payload_, "the profile's payload to include, or none (default: its active_payload)")
+      ->type_name("NAME");
+}
+
 void Tool::add_seed() {
   app_.add_option("--seed", seed_, "seed of every random process (default 1)")->type_name("N");
 }

@@ -100,6 +100,19 @@ std::string describe_chain(const Model& model, const Profile& profile) {
          triple(model.tip_placement.translation) + ", rpy " +
          triple(rpy(model.tip_placement.rotation)) + "\n";
   out += "locked     " + join(model.locked_joints) + "\n";
+  std::vector<std::string> names;
+  for (const Payload& p : profile.payloads) names.push_back(p.name);
+  if (const Payload* payload = profile.payload(); payload && model.payload_body >= 0) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(payload->inertia,
+                                                                Eigen::EigenvaluesOnly);
+    out += "payload    " + payload->name + ": " + number(payload->mass) + " kg, com " +
+           triple(payload->com) + " m in " + (payload->link.empty() ? model.tip : payload->link) +
+           ", principal_inertia " + triple(solver.eigenvalues()) + " kg m^2, in body " +
+           std::to_string(model.payload_body + 1) + " (included above)\n";
+  } else {
+    out += "payload    none\n";
+  }
+  out += "payloads   " + join(names) + "\n";
   return out;
 }
 

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <numeric>
 #include <sstream>
@@ -104,6 +105,13 @@ struct Builder {
   const Profile& profile;
   const urdf::ModelInterface& urdf;
   std::string where;  // URDF file, for messages
+  // Where each URDF link ended up: the index of the body it was merged into (-1 on the fixed
+  // base) and its frame in that body's frame. For attaching the payload.
+  struct LinkFrame {
+    int body = -1;
+    Placement in_body;
+  };
+  mutable std::map<std::string, LinkFrame> link_frames;
 
   [[noreturn]] void fail(const std::string& message) const {
     throw Error(located(where, 0, message));
@@ -142,7 +150,8 @@ struct Builder {
   // be null) to `body`. Moving joints off the chain are locked at q = 0.
   void add_subtree(const urdf::Link& link, const Placement& link_in_body,
                    const urdf::Link* next_on_chain, MassAccumulator& body, Body* named,
-                   std::vector<std::string>& locked) const {
+                   std::vector<std::string>& locked, int body_index) const {
+    link_frames[link.name] = {body_index, link_in_body};
     add_inertial(link, link_in_body, body);
     for (const auto& child : link.child_links) {
       if (child.get() == next_on_chain) continue;
@@ -150,8 +159,35 @@ struct Builder {
       if (joint.type != urdf::Joint::FIXED) locked.push_back(joint.name);
       if (named) named->merged_links.push_back(child->name);
       add_subtree(*child, compose(link_in_body, to_placement(joint.parent_to_joint_origin_transform)),
-                  nullptr, body, named, locked);
+                  nullptr, body, named, locked, body_index);
     }
+  }
+
+  // Fixes the payload to its link: its mass, com and inertia join the body the link belongs to,
+  // exactly as a URDF link on a fixed joint would.
+  void add_payload(const Payload& payload, Model& model, std::vector<MassAccumulator>& mass) const {
+    const std::string& link = payload.link.empty() ? profile.tip : payload.link;
+    auto fail_here = [&](const std::string& message) {
+      throw Error(located(profile.path.string(), 0,
+                          "payload " + in_quotes(payload.name) + ": " + message));
+    };
+    const auto it = link_frames.find(link);
+    if (it == link_frames.end()) {
+      if (urdf.getLink(link)) {
+        fail_here("link " + in_quotes(link) + " is not part of the chain " + profile.root + " -> " +
+                  profile.tip + " or what hangs off it");
+      }
+      fail_here("unknown link " + in_quotes(link) + " in " + where);
+    }
+    if (it->second.body < 0) {
+      fail_here("link " + in_quotes(link) + " does not move (it is on the fixed base)");
+    }
+    const Placement& frame = it->second.in_body;
+    mass[static_cast<std::size_t>(it->second.body)].add(
+        payload.mass, frame.rotation * payload.com + frame.translation,
+        frame.rotation * payload.inertia * frame.rotation.transpose());
+    model.payload = payload.name;
+    model.payload_body = it->second.body;
   }
 
   Model build() const {
@@ -237,10 +273,14 @@ struct Builder {
         }
       }
       const urdf::Link* next = k + 1 < chain.size() ? chain[k + 1] : nullptr;
-      if (model.bodies.empty()) continue;  // still on the fixed base: its mass does not matter
+      if (model.bodies.empty()) {  // still on the fixed base: its mass does not matter
+        link_frames[link.name] = {-1, link_in_body};
+        continue;
+      }
       Body& body = model.bodies.back();
       if (link.name != body.name) body.merged_links.push_back(link.name);
-      add_subtree(link, link_in_body, next, mass.back(), &body, model.locked_joints);
+      add_subtree(link, link_in_body, next, mass.back(), &body, model.locked_joints,
+                  static_cast<int>(model.bodies.size()) - 1);
     }
     if (model.joints.empty()) {
       fail("no moving joint between root " + in_quotes(profile.root) + " and tip " +
@@ -248,6 +288,7 @@ struct Builder {
     }
     model.tip_placement = link_in_body;
     model.nq = static_cast<int>(model.joints.size());
+    if (const Payload* payload = profile.payload()) add_payload(*payload, model, mass);
 
     for (std::size_t i = 0; i < model.bodies.size(); ++i) {
       Body& body = model.bodies[i];
@@ -319,7 +360,7 @@ bool is_physical_inertia(const Eigen::Matrix3d& inertia, std::string* why) {
 
 Model build_model(const Profile& profile) {
   const urdf::ModelInterfaceSharedPtr urdf = parse_urdf(profile.urdf);
-  return Builder{profile, *urdf, profile.urdf.string()}.build();
+  return Builder{profile, *urdf, profile.urdf.string(), {}}.build();
 }
 
 }  // namespace momentum::model

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "momentum/model/model.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/version.hpp"
 
@@ -66,13 +67,74 @@ std::uint64_t line_of_byte(const std::string& text, std::size_t byte) {
                  std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(end), '\n'));
 }
 
+// One entry of "payloads". Inertia: 6 numbers in the URDF's order ixx, ixy, ixz, iyy, iyz, izz.
+Payload parse_payload(const std::string& name, const nlohmann::json& entry,
+                      const std::filesystem::path& path) {
+  const std::string where = "\"payloads\"." + name;
+  if (name == "none") fail(path, where + ": \"none\" is reserved for no payload");
+  if (name.empty()) fail(path, "\"payloads\" has a payload with an empty name");
+  if (!entry.is_object()) fail(path, where + " must be an object, not " + type_name(entry));
+  Payload payload;
+  payload.name = name;
+  bool have_mass = false;
+  for (const auto& item : entry.items()) {
+    const std::string key = item.key();
+    const nlohmann::json& value = item.value();
+    if (key == "mass") {
+      payload.mass = finite_number(value, where + ".mass", path);
+      if (payload.mass < 0.0) fail(path, where + ".mass must be >= 0 (kg)");
+      have_mass = true;
+    } else if (key == "com") {
+      if (!value.is_array() || value.size() != 3) {
+        fail(path, where + ".com must be an array of 3 numbers (m, in the link's frame)");
+      }
+      for (std::size_t k = 0; k < 3; ++k) {
+        payload.com[static_cast<Eigen::Index>(k)] =
+            finite_number(value[k], where + ".com[" + std::to_string(k) + "]", path);
+      }
+    } else if (key == "inertia") {
+      if (!value.is_array() || value.size() != 6) {
+        fail(path, where + ".inertia must be an array of 6 numbers: ixx, ixy, ixz, iyy, iyz, izz "
+                           "(kg m^2, about the com)");
+      }
+      double v[6];
+      for (std::size_t k = 0; k < 6; ++k) {
+        v[k] = finite_number(value[k], where + ".inertia[" + std::to_string(k) + "]", path);
+      }
+      payload.inertia << v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5];
+    } else if (key == "link") {
+      if (!value.is_string() || value.get<std::string>().empty()) {
+        fail(path, where + ".link must be a link name");
+      }
+      payload.link = value.get<std::string>();
+    } else if (key != "description") {
+      warn(located(path.string(), 0, "unknown key " + in_quotes(key) + " in " + where + " ignored"));
+    }
+  }
+  if (!have_mass) fail(path, where + ": missing \"mass\" (kg)");
+  if (!payload.inertia.isZero(0.0)) {
+    if (payload.mass == 0.0) fail(path, where + ": zero mass with a nonzero inertia");
+    std::string why;
+    if (!is_physical_inertia(payload.inertia, &why)) {
+      fail(path, where + ".inertia is not physical: " + why);
+    }
+  }
+  return payload;
+}
+
+std::string payload_names(const Profile& profile) {
+  std::string names;
+  for (const Payload& p : profile.payloads) names += (names.empty() ? "" : ", ") + p.name;
+  return names.empty() ? "none defined" : "known: " + names;
+}
+
 }  // namespace
 
 const std::vector<std::string>& known_profile_keys() {
   static const std::vector<std::string> keys = {
       "urdf",     "root",       "tip",      "gravity",    "joints",
       "observer", "friction",   "thresholds", "provenance", "payloads",
-      "dynamics", "simulation", "name",     "description"};
+      "dynamics", "simulation", "name",     "description", "active_payload"};
   return keys;
 }
 
@@ -142,8 +204,44 @@ Profile profile_from_document(nlohmann::json document, const std::filesystem::pa
       profile.joints.push_back(drive);
     }
   }
+  if (const auto it = document.find("payloads"); it != document.end()) {
+    if (!it->is_object()) {
+      fail(path, "\"payloads\" must be an object of named payloads, not " +
+                     std::string(type_name(*it)));
+    }
+    for (const auto& item : it->items()) {
+      profile.payloads.push_back(parse_payload(item.key(), item.value(), path));
+    }
+  }
+  if (const auto it = document.find("active_payload"); it != document.end()) {
+    if (!it->is_string()) {
+      fail(path, "\"active_payload\" must be a payload name or \"none\", not " +
+                     std::string(type_name(*it)));
+    }
+    const std::string name = it->get<std::string>();
+    if (name != "none") {
+      select_payload(profile, name);
+      if (profile.active_payload < 0) fail(path, "\"active_payload\" is empty");
+    }
+  }
   profile.document = std::move(document);
   return profile;
+}
+
+void select_payload(Profile& profile, const std::string& name) {
+  if (name.empty()) return;
+  if (name == "none") {
+    profile.active_payload = -1;
+    return;
+  }
+  for (std::size_t k = 0; k < profile.payloads.size(); ++k) {
+    if (profile.payloads[k].name == name) {
+      profile.active_payload = static_cast<int>(k);
+      return;
+    }
+  }
+  fail(profile.path, "no payload " + in_quotes(name) + " in \"payloads\" (" +
+                         payload_names(profile) + ")");
 }
 
 void save_profile_atomically(const nlohmann::json& document, const std::filesystem::path& path) {

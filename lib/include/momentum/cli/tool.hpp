@@ -49,6 +49,10 @@ class Tool {
   void add_stream_output();
   // -p FILE, the robot profile.
   void add_profile(bool required = true);
+  // --payload NAME: which of the profile's payloads the dynamics include ("none": none; not
+  // given: the profile's "active_payload"). For tools whose dynamics use the profile; apply
+  // it with model::select_payload(profile, tool.payload()).
+  void add_payload();
   // --seed N (default 1): every random process of the tool derives from it.
   void add_seed();
 
@@ -61,6 +65,7 @@ class Tool {
   const std::vector<std::string>& inputs() const { return inputs_; }
   const std::string& output() const { return output_; }
   const std::string& profile() const { return profile_; }
+  const std::string& payload() const { return payload_; }  // empty when not given
   std::uint64_t seed() const { return seed_; }
   bool quiet() const { return quiet_; }
   bool strict() const { return strict_; }
@@ -88,6 +93,7 @@ class Tool {
   std::string output_ = "-";
   std::string output_format_;
   std::string profile_;
+  std::string payload_;
   std::uint64_t seed_ = 1;
   bool quiet_ = false;
   bool strict_ = false;

@@ -67,6 +67,10 @@ struct Model {
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};  // in the root frame, m/s^2
   Eigen::VectorXd rotor_inertia; // nq, reflected rotor inertia (kg m^2 or kg), added to M's diagonal
   Eigen::VectorXd k_i;           // nq, torque constants (Nm/A or N/A)
+  // The profile's active payload, already combined into bodies[payload_body] (parallel-axis
+  // theorem); empty and -1 without one.
+  std::string payload;
+  int payload_body = -1;
 
   // Sum of the moving bodies' masses, kg (the root link's mass is not part of the dynamics).
   double total_mass() const;
@@ -80,7 +84,10 @@ struct Model {
 // planar; the profile's "joints" list has a different length than the chain's moving joints;
 // an inertial element has a negative mass, a mass of zero with a nonzero inertia, or a
 // rotational inertia that is not positive definite or violates the triangle inequality; a
-// moving body ends up with no mass. A chain with no moving joint is an error too.
+// moving body ends up with no mass. A chain with no moving joint is an error too. The active
+// payload (Profile::payload()) is merged into the body its link belongs to; a payload link that
+// is not in the URDF, not on or below the chain, or on the fixed base is an error naming the
+// profile file.
 Model build_model(const Profile& profile);
 
 // Checks one rotational inertia (about its com, any frame): symmetric, positive definite, and

@@ -23,6 +23,18 @@ struct JointDrive {
   double rotor_inertia = 0.0;
 };
 
+// A body the arm carries, as a robot controller's payload setting holds it. Combined into the
+// inertia of the body its link belongs to by build_model (parallel-axis theorem).
+struct Payload {
+  std::string name;                                   // key in the profile's "payloads"
+  double mass = 0.0;                                  // kg, >= 0
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();      // centre of mass in `link`'s frame, m
+  // Rotational inertia about the centre of mass, axes of `link`'s frame, kg m^2. Zero for a
+  // point mass, else physical (see is_physical_inertia); zero when mass is 0.
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+  std::string link;                                   // URDF link it is fixed to; empty: the tip
+};
+
 // A parsed profile. `document` is the whole JSON as read (comments dropped); the typed fields
 // below are the model's view of it and are not written back by save_profile_atomically.
 struct Profile {
@@ -36,6 +48,16 @@ struct Profile {
   // (then every joint gets the JointDrive defaults). The count is checked by build_model, which
   // is the first place the chain is known.
   std::vector<JointDrive> joints;
+  // The profile's "payloads", sorted by name, and the one the dynamics include:
+  // an index into `payloads`, or -1 for none. Starts as the document's "active_payload";
+  // select_payload changes it (a tool's --payload).
+  std::vector<Payload> payloads;
+  int active_payload = -1;
+
+  // The payload the dynamics include, or nullptr.
+  const Payload* payload() const {
+    return active_payload < 0 ? nullptr : &payloads[static_cast<std::size_t>(active_payload)];
+  }
 };
 
 // Top-level keys this layer knows; anything else is reported through momentum::warn.
@@ -44,13 +66,20 @@ const std::vector<std::string>& known_profile_keys();
 // Reads and parses a profile file. JSON with // and /* */ comments. Throws momentum::Error
 // naming the file (and the line for syntax errors) when the file cannot be read, is not JSON,
 // lacks urdf/root/tip, or a known key has the wrong type or value (gravity not 3 finite numbers,
-// joints not an array of objects, k_i not finite, rotor_inertia negative). Unknown top-level
+// joints not an array of objects, k_i not finite, rotor_inertia negative, a payload with a
+// negative or non-finite mass, a com not 3 numbers, an inertia not 6 numbers or not physical,
+// a payload named "none", "active_payload" naming no payload). Unknown top-level
 // keys are not errors: each is reported once through momentum::warn.
 Profile load_profile(const std::filesystem::path& path);
 
 // Same as load_profile for a document already in memory; `path` is used to resolve the URDF
 // and in error messages (it need not exist).
 Profile profile_from_document(nlohmann::json document, const std::filesystem::path& path);
+
+// Makes the payload called `name` the active one: "none" for no payload, "" to keep the
+// profile's "active_payload". Throws momentum::Error naming the profile file when no payload
+// has that name (the message lists the names it has).
+void select_payload(Profile& profile, const std::string& name);
 
 // Writes `document` (pretty-printed, 2-space indent, trailing newline) to a temporary file in
 // the destination's folder, fsyncs it, and renames it over `path`, so readers see either the
