@@ -275,10 +275,13 @@ int main(int argc, char** argv) {
       report.mirror_position_mismatch = reference.max_position_mismatch;
       for (std::size_t i = 0; i < report.joints.size(); ++i) {
         auto& j = report.joints[i];
-        j.mirror = fit::compare_mirror(reference, i, j.fit.model.kind, j.fit.model.parameters, options.friction, skip);
+        const double guard = j.min_speed > 0 ? 3.0 / j.gains.k1 : 0.0;
+        j.mirror = fit::compare_mirror(reference, i, j.fit.model.kind, j.fit.model.parameters, options.friction, skip,
+                                       j.min_speed, guard);
         if (j.fit.static_model)
           j.mirror_static = fit::compare_mirror(reference, i, friction::Kind::stribeck,
-                                                j.fit.static_model->parameters, options.friction, skip);
+                                                j.fit.static_model->parameters, options.friction, skip,
+                                                j.min_speed, guard);
       }
     }
 

@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
   std::optional<double> duration;
   app.add_option("--trajectory", trajectory, "paper, multisine, ptp or hold")
       ->check(CLI::IsMember({"paper", "multisine", "ptp", "hold"}))->capture_default_str();
+  app.add_flag("--mirror", run.trajectory.mirror, "play the trajectory backwards in time (the mirror of mo-lugre-fit --mirror)");
   app.add_option("--duration", duration, "length in seconds (default: 60, longer for many collisions)")->type_name("S");
   app.add_option("--rate", run.rate_hz, "output sample rate (125 for the paper)")->type_name("HZ")->capture_default_str();
   app.add_option("--amplitude", run.trajectory.amplitude, "paper/multisine amplitude")->type_name("RAD")->capture_default_str();
@@ -144,7 +145,7 @@ int main(int argc, char** argv) {
         writer_options.line_buffered = line_buffered;
         out = stream::Writer::open(output, writer_options);
         out->comment(tool.provenance());
-        out->comment(" mo-sim: seed " + std::to_string(tool.seed()) + ", trajectory " + trajectory + ", duration " +
+        out->comment(" mo-sim: seed " + std::to_string(tool.seed()) + ", trajectory " + trajectory + (run.trajectory.mirror ? " mirrored" : "") + ", duration " +
                      format_number(run.trajectory.duration) + " s, rate " + format_number(run.rate_hz) + " Hz");
         out->header(sim::sample_columns(model.nq, with_truth));
       }

@@ -69,6 +69,7 @@ MirrorReference mirror_reference(stream::Reader& forward, stream::Reader& mirror
   MirrorReference ref;
   ref.joints = joints;
   ref.dq.resize(joints.size());
+  ref.dq_mirror.resize(joints.size());
   ref.friction.resize(joints.size());
   for (std::size_t k = 0; k < f.t.size(); ++k) {
     const double tm = m.t.front() + (duration - (f.t[k] - f.t.front()));
@@ -88,6 +89,7 @@ MirrorReference mirror_reference(stream::Reader& forward, stream::Reader& mirror
       ref.max_position_mismatch = std::max(ref.max_position_mismatch, std::abs(f.q[i][k] - at(m.q[i])));
       ref.max_velocity_mismatch = std::max(ref.max_velocity_mismatch, std::abs(f.dq[i][k] + at(m.dq[i])));
       ref.dq[i].push_back(f.dq[i][k]);
+      ref.dq_mirror[i].push_back(-at(m.dq[i]));
       ref.friction[i].push_back(0.5 * (f.tau[i][k] - at(m.tau[i])));
     }
   }
@@ -96,15 +98,31 @@ MirrorReference mirror_reference(stream::Reader& forward, stream::Reader& mirror
 
 MirrorCheck compare_mirror(const MirrorReference& reference, std::size_t index, friction::Kind kind,
                            const friction::Parameters<double>& parameters,
-                           const friction::Options& options, double skip) {
+                           const friction::Options& options, double skip, double min_speed,
+                           double guard) {
   MirrorCheck check;
   if (index >= reference.joints.size() || reference.t.empty()) return check;
+  const auto& t = reference.t;
+  // Times of the slow samples, in order, for the guard window around each.
+  std::vector<double> slow;
+  if (min_speed > 0)
+    for (std::size_t k = 0; k < t.size(); ++k)
+      if (std::abs(reference.dq[index][k]) < min_speed || std::abs(reference.dq_mirror[index][k]) < min_speed)
+        slow.push_back(t[k]);
+  auto near_slow = [&](double time) {
+    const auto it = std::lower_bound(slow.begin(), slow.end(), time - guard);
+    return it != slow.end() && *it <= time + guard;
+  };
   friction::JointFriction<double> model(kind, parameters, options);
   double sum = 0;
-  for (std::size_t k = 0; k < reference.t.size(); ++k) {
-    const double dt = k ? reference.t[k] - reference.t[k - 1] : 0.0;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    const double dt = k ? t[k] - t[k - 1] : 0.0;
     const double tau = model.step(reference.dq[index][k], dt);
-    if (reference.t[k] < reference.t.front() + skip) continue;
+    if (t[k] < t.front() + skip) continue;
+    if (near_slow(t[k])) {
+      ++check.excluded;
+      continue;
+    }
     const double e = tau - reference.friction[index][k];
     sum += e * e;
     check.max_abs = std::max(check.max_abs, std::abs(e));

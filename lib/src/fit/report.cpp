@@ -146,7 +146,7 @@ json report_json(const FitReport& r) {
     else
       entry["current"] = nullptr;
     if (j.mirror) {
-      entry["mirror"] = {{"samples", j.mirror->samples}, {"rms", number(j.mirror->rms)}, {"max_abs", number(j.mirror->max_abs)}};
+      entry["mirror"] = {{"samples", j.mirror->samples}, {"excluded", j.mirror->excluded}, {"rms", number(j.mirror->rms)}, {"max_abs", number(j.mirror->max_abs)}};
       if (j.mirror_static)
         entry["mirror"]["static_rms"] = number(j.mirror_static->rms);
     }
@@ -207,8 +207,8 @@ std::string report_text(const FitReport& r) {
       out += printf_string("  current profile friction (%s): ", friction::kind_name(*j.current_kind)) +
              metrics_line(*j.current) + "\n";
     if (j.mirror) {
-      out += printf_string("  mirror check: rms %.4g Nm  max %.4g Nm over %zu samples", j.mirror->rms,
-                           j.mirror->max_abs, j.mirror->samples);
+      out += printf_string("  mirror check: rms %.4g Nm  max %.4g Nm over %zu samples (%zu near slow motion left out)",
+                           j.mirror->rms, j.mirror->max_abs, j.mirror->samples, j.mirror->excluded);
       if (j.mirror_static) out += printf_string("  (stribeck rms %.4g Nm)", j.mirror_static->rms);
       out += '\n';
     }

@@ -74,6 +74,7 @@ bool TrajectoryOptions::IsValid(std::string* why) const {
     if (!(speed_fraction > 0 && speed_fraction <= 1)) return fail(why, "speed fraction must be in (0, 1]");
     if (!(std::isfinite(min_move) && min_move > 0)) return fail(why, "minimum move time must be positive");
     if (!(std::isfinite(max_dwell) && max_dwell >= 0)) return fail(why, "maximum dwell must be >= 0");
+    if (mirror) return fail(why, "the ptp trajectory cannot be mirrored (its poses are drawn as time advances)");
   }
   return true;
 }
@@ -240,6 +241,12 @@ void Trajectory::next_ptp_segment() {
 }
 
 void Trajectory::evaluate(double t, Eigen::VectorXd& q, Eigen::VectorXd& dq, Eigen::VectorXd& ddq) {
+  if (!options_.mirror) return evaluate_forward(t, q, dq, ddq);
+  evaluate_forward(options_.duration - t, q, dq, ddq);
+  dq = Eigen::VectorXd::Zero(n_) - dq;  // +0 rather than -0 at rest
+}
+
+void Trajectory::evaluate_forward(double t, Eigen::VectorXd& q, Eigen::VectorXd& dq, Eigen::VectorXd& ddq) {
   q.resize(n_);
   dq.resize(n_);
   ddq.resize(n_);

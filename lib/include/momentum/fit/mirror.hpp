@@ -24,6 +24,9 @@ struct MirrorReference {
   std::vector<int> joints;                     // 1-based joint numbers
   std::vector<double> t;                       // forward log's times, s
   std::vector<std::vector<double>> dq;         // [joint][sample] forward velocity, rad/s
+  // [joint][sample] the mirror's velocity at the mirrored instant, sign reversed (equal to dq
+  // for perfect mirrors), rad/s.
+  std::vector<std::vector<double>> dq_mirror;
   std::vector<std::vector<double>> friction;   // [joint][sample] reference friction, Nm
   std::size_t skipped = 0;                     // forward rows outside the mirror's time span
   double max_position_mismatch = 0;  // max |q(t) - q_mirror(T - t)| over joints and samples, rad
@@ -41,16 +44,24 @@ MirrorReference mirror_reference(stream::Reader& forward, stream::Reader& mirror
 
 // Agreement of a friction model with the reference for joint index `index` of `reference`.
 struct MirrorCheck {
-  std::size_t samples = 0;
+  std::size_t samples = 0;    // compared samples
+  std::size_t excluded = 0;   // samples after `skip` left out near slow motion (see below)
   double rms = 0;      // Nm
   double max_abs = 0;  // Nm
 };
 
 // Runs the model (JointFriction, the forward log's measured velocity, the forward log's time
 // steps) and compares it with the reference on samples at least `skip` seconds after the
-// first.
+// first. With min_speed > 0 (rad/s), samples where either log moves slower than min_speed, and
+// those within `guard` seconds of such a sample (before or after: the mirror's "after" is the
+// forward log's "before"), are not compared. Near a velocity reversal the reference is not
+// friction: the joint sticks (presliding friction is not odd in the velocity), the instants of
+// reversal in the two logs differ by the controllers' tracking lags, and a step of 2 tau_c
+// between them lands in the difference; on simulated paper-arm data these windows hold almost
+// all of the reference's error. The fit leaves the same samples out (--min-speed).
 MirrorCheck compare_mirror(const MirrorReference& reference, std::size_t index, friction::Kind kind,
                            const friction::Parameters<double>& parameters,
-                           const friction::Options& options, double skip = 0);
+                           const friction::Options& options, double skip = 0,
+                           double min_speed = 0, double guard = 0);
 
 }  // namespace momentum::fit

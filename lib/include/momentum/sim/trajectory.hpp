@@ -56,8 +56,13 @@ struct TrajectoryOptions {
   double speed_fraction = 0.4;
   double min_move = 1.0;
   double max_dwell = 1.0;
+  // Play the motion backwards in time, q_mirror(t) = q(duration - t): the same path with the
+  // velocity reversed and the same acceleration at mirrored instants (the paper's friction
+  // check, fit/mirror.hpp). Not for ptp, whose poses are drawn as time advances.
+  bool mirror = false;
 
-  // False (with the reason in `why`, when non-null) for values outside the ranges above.
+  // False (with the reason in `why`, when non-null) for values outside the ranges above, and
+  // for mirror with ptp.
   bool IsValid(std::string* why) const;
 };
 
@@ -96,6 +101,7 @@ class Trajectory {
   struct Harmonic {
     double amplitude, omega, phase;
   };
+  void evaluate_forward(double t, Eigen::VectorXd& q, Eigen::VectorXd& dq, Eigen::VectorXd& ddq);
   void steady(int joint, double tau, double& p, double& v, double& a) const;
   void next_ptp_segment();
 
