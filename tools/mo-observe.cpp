@@ -22,9 +22,10 @@ int main(int argc, char** argv) {
   tool.add_inputs("input stream (- or none: stdin)");
   tool.add_stream_output();
   tool.add_profile();
+  tool.add_payload();
   std::optional<int> order;
   std::string k1, k2, k3, cutoff, update;
-  std::optional<double> gap_factor, deadband, velocity_cutoff;
+  std::optional<double> gap_factor, bridge_tolerance, deadband, velocity_cutoff;
   bool no_friction = false, restart_column = false;
   auto& app = tool.app();
   app.add_option("--order", order, "observer order: 1, or 2 (the paper's eq. 9/11)")->type_name("N")->check(CLI::IsMember({1, 2}));
@@ -32,7 +33,8 @@ int main(int argc, char** argv) {
   app.add_option("--k2", k2, "high-pass gain K2 of the second order, 1/s")->type_name("LIST");
   app.add_option("--k3", k3, "feed-forward gain K3 of the second order, 1/s")->type_name("LIST");
   app.add_option("--cutoff", cutoff, "set K1 = 2 pi HZ from a cutoff frequency")->type_name("HZ");
-  app.add_option("--gap-factor", gap_factor, "restart after a step longer than X median steps (default 5)")->type_name("X");
+  app.add_option("--gap-factor", gap_factor, "bridge gaps of up to X median steps, restart after longer ones (default 5)")->type_name("X");
+  app.add_option("--bridge-tolerance", bridge_tolerance, "largest position mismatch across a bridged gap, rad (default 0.001)")->type_name("RAD");
   app.add_flag("--no-friction", no_friction, "ignore the profile's friction model (r only)");
   app.add_option("--friction-deadband", deadband, "treat |dq| below W as rest in the friction model, rad/s")->type_name("W");
   app.add_option("--friction-cutoff", velocity_cutoff, "low-pass the velocity driving the friction model, Hz")->type_name("HZ");
@@ -42,7 +44,8 @@ int main(int argc, char** argv) {
   return tool.run(argc, argv, [&] {
     if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
     const std::string input = tool.inputs().empty() ? "-" : tool.inputs().front();
-    const model::Profile profile = model::load_profile(tool.profile());
+    model::Profile profile = model::load_profile(tool.profile());
+    model::select_payload(profile, tool.payload());
     const model::Model robot = model::build_model(profile);
 
     observer::ObserveStreamOptions options;
@@ -59,6 +62,7 @@ int main(int argc, char** argv) {
     if (!k3.empty()) o.k3 = cli::parse_number_list(k3, "--k3");
     if (o.order == 1 && (!k2.empty() || !k3.empty())) throw cli::UsageError("--k2 and --k3 need --order 2");
     if (gap_factor) o.gap_factor = *gap_factor;
+    if (bridge_tolerance) o.bridge_tolerance = *bridge_tolerance;
     for (const auto& [option, text] : {std::pair{"--k1", &k1}, {"--cutoff", &cutoff}, {"--k2", &k2}, {"--k3", &k3}}) {
       const std::size_t count = cli::split_list(*text).size();
       if (count > 1 && count != static_cast<std::size_t>(robot.nq))
@@ -66,7 +70,7 @@ int main(int argc, char** argv) {
                               std::to_string(robot.nq) + " joints");
     }
     std::string why;
-    if (!o.is_valid(&why)) throw cli::UsageError(why);
+    if (!o.IsValid(&why)) throw cli::UsageError(why);
     try {
       o.joint_gains(robot.nq);  // the profile's list lengths against the chain
     } catch (const Error& e) {
@@ -84,10 +88,11 @@ int main(int argc, char** argv) {
       if (velocity_cutoff) friction->options.velocity_cutoff_hz = *velocity_cutoff;
       if (!update.empty() && !friction::parse_update(update, &friction->options.update))
         throw cli::UsageError("--lugre-update: '" + update + "' is not exact or semi-implicit");
-      if (!friction->options.is_valid(&why)) throw cli::UsageError(why);
+      if (!friction->options.IsValid(&why)) throw cli::UsageError(why);
       options.friction = &*friction;
     }
     options.restart_column = restart_column;
+    options.strict = tool.strict();
 
     cli::Progress progress(tool.show_progress());
     options.progress = [&](std::uint64_t rows, double t) {

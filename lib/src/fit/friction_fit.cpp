@@ -89,7 +89,7 @@ bool FitOptions::IsValid(std::string* why) const {
     if (why) *why = text;
     return false;
   };
-  if (!friction.is_valid(why)) return false;
+  if (!friction.IsValid(why)) return false;
   if (!global.IsValid(why)) return false;
   if (!polish.IsValid(why)) return false;
   if (!(identifiability_threshold > 0)) return fail("identifiability threshold must be > 0");
@@ -757,7 +757,7 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
                    std::uint64_t seed, const JointProgressCallback& progress) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
-  if (!gains.is_valid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
+  if (!gains.IsValid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
   if (data.scored_count() == 0)
     throw Error("joint " + std::to_string(data.joint) + ": no sample to fit");
   const auto start = std::chrono::steady_clock::now();
@@ -783,7 +783,7 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
   for (std::size_t i = 0; i < data.size(); ++i) {
-    if (!gains[i].is_valid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
+    if (!gains[i].IsValid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
     if (data[i].scored_count() == 0)
       throw Error("joint " + std::to_string(data[i].joint) + ": no sample to fit");
   }

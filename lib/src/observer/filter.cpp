@@ -65,7 +65,7 @@ bool fail(std::string* why, const char* name, double value, const char* conditio
 
 }  // namespace
 
-bool Gains::is_valid(std::string* why) const {
+bool Gains::IsValid(std::string* why) const {
   if (!std::isfinite(k1) || !(k1 > 0)) return fail(why, "k1", k1, "a finite value > 0");
   if (!std::isfinite(k2) || k2 < 0) return fail(why, "k2", k2, "a finite value >= 0");
   if (!std::isfinite(k3) || k3 < 0) return fail(why, "k3", k3, "a finite value >= 0");

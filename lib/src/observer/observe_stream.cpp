@@ -112,6 +112,11 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   std::vector<double> q(n), dq(n), tau(n), r(n), tau_f(n), mu(n);
   ObserveStreamSummary summary;
   std::string bad_run_start;
+  // The previous row as read, to tell exact duplicates from other rows out of time order.
+  std::vector<double> previous_row(width_in);
+  bool have_previous_row = false;
+  constexpr std::uint64_t kReportedPerKind = 5;
+  std::string first_skipped;
   std::uint64_t rows = 0;
   double t = 0;
   while (const double* row = in_.next()) {
@@ -126,11 +131,27 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     const double previous_t = observer_.last_time();
     const SampleStatus status = observer_.step(t, q.data(), dq.data(), tau.data(), r.data(),
                                                tau_f.data(), mu.data());
+    const bool duplicate = have_previous_row &&
+                           std::equal(row, row + width_in, previous_row.begin(),
+                                      [](double a, double b) { return a == b || (a != a && b != b); });
+    std::copy(row, row + width_in, previous_row.begin());
+    have_previous_row = true;
     switch (status) {
-      case SampleStatus::time_not_increasing:
+      case SampleStatus::time_not_increasing: {
         ++summary.rejected_rows;
-        in_.reject_row("time does not increase: t=" + exact(t) + " after t=" + exact(previous_t));
+        const std::string what = duplicate ? "duplicate row" : "time does not increase";
+        const std::string message = what + ": t=" + exact(t) + " after t=" + exact(previous_t);
+        if (options_.strict) in_.reject_row(message);
+        std::uint64_t& count = duplicate ? summary.duplicate_rows : summary.out_of_order_rows;
+        ++count;
+        if (first_skipped.empty()) first_skipped = in_.where();
+        if (count <= kReportedPerKind) warn(in_.where() + ": " + message + ": skipped");
         continue;
+      }
+      case SampleStatus::bridged:
+        ++summary.bridged_gaps;
+        summary.longest_bridge = std::max(summary.longest_bridge, observer_.last_gap());
+        break;
       case SampleStatus::invalid:
         if (bad_run_start.empty()) bad_run_start = in_.where();
         ++summary.invalid_rows;
@@ -139,7 +160,12 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
         ++summary.restarts;
         warn(in_.where() + ": observer restarted at t=" + exact(t) + " after a gap of " +
              short_number(observer_.last_gap()) + " s (median dt " +
-             short_number(observer_.median_dt()) + " s)");
+             short_number(observer_.median_dt()) + " s)" +
+             (observer_.last_gap_mismatched()
+                  ? ": joint " + std::to_string(observer_.mismatch_joint() + 1) +
+                        "'s position moved " + short_number(observer_.mismatch()) +
+                        " away from its integrated velocity"
+                  : std::string()));
         break;
       case SampleStatus::restarted_after_bad: {
         ++summary.restarts;
@@ -164,9 +190,23 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
         row_out[mu_out_[j]] = mu[j];
       }
     }
-    if (restart_out_) row_out[*restart_out_] = status == SampleStatus::ok ? 0.0 : 1.0;
+    if (restart_out_) {
+      row_out[*restart_out_] = status == SampleStatus::ok || status == SampleStatus::bridged ? 0.0 : 1.0;
+    }
     out.row(row_out.data());
     ++summary.rows_written;
+  }
+  if (summary.rejected_rows) {
+    std::string text = std::to_string(summary.rejected_rows) + " row" +
+                       (summary.rejected_rows == 1 ? "" : "s") + " skipped for their time (";
+    text += std::to_string(summary.duplicate_rows) + " duplicate, " +
+            std::to_string(summary.out_of_order_rows) + " out of time order; first at " +
+            first_skipped + ")";
+    warn(text);
+  }
+  if (summary.bridged_gaps) {
+    warn(std::to_string(summary.bridged_gaps) + " gap" + (summary.bridged_gaps == 1 ? "" : "s") +
+         " bridged without a restart (longest " + short_number(summary.longest_bridge) + " s)");
   }
   if (!bad_run_start.empty()) {
     warn(located(in_.name(), 0, "the stream ends with rows with nan or inf from " + bad_run_start));

@@ -37,17 +37,19 @@ std::vector<double> number_or_list(const nlohmann::json& value, const char* key)
 
 }  // namespace
 
-bool ObserverOptions::is_valid(std::string* why) const {
+bool ObserverOptions::IsValid(std::string* why) const {
   if (order != 1 && order != 2) return fail(why, "order must be 1 or 2, not " + std::to_string(order));
   if (k1.empty() || k2.empty() || k3.empty()) return fail(why, "a gain list is empty");
   if (!std::isfinite(gap_factor) || !(gap_factor > 1))
     return fail(why, "gap_factor must be a finite number > 1");
+  if (!std::isfinite(bridge_tolerance) || !(bridge_tolerance >= 0))
+    return fail(why, "bridge_tolerance must be a finite number >= 0");
   const std::size_t n = std::max({k1.size(), k2.size(), k3.size()});
   for (std::size_t j = 0; j < n; ++j) {
     Gains g{k1[std::min(j, k1.size() - 1)], order == 2 ? k2[std::min(j, k2.size() - 1)] : 0.0,
             order == 2 ? k3[std::min(j, k3.size() - 1)] : 0.0};
     std::string reason;
-    if (!g.is_valid(&reason)) {
+    if (!g.IsValid(&reason)) {
       return fail(why, (n > 1 ? "joint " + std::to_string(j + 1) + ": " : std::string()) + reason);
     }
   }
@@ -75,7 +77,8 @@ std::vector<Gains> ObserverOptions::joint_gains(int joints) const {
 ObserverOptions observer_options_from_json(const nlohmann::json& section,
                                            std::vector<std::string>* warnings) {
   if (!section.is_object()) error("the section is not an object");
-  static const std::set<std::string> known = {"order", "k1", "k2", "k3", "cutoff_hz", "gap_factor"};
+  static const std::set<std::string> known = {"order", "k1", "k2", "k3", "cutoff_hz", "gap_factor",
+                                                "bridge_tolerance"};
   for (const auto& item : section.items())
     if (!known.count(item.key()) && warnings) warnings->push_back("observer: unknown key '" + item.key() + "'");
   ObserverOptions options;
@@ -98,8 +101,12 @@ ObserverOptions observer_options_from_json(const nlohmann::json& section,
     if (!it->is_number()) error("'gap_factor' must be a number");
     options.gap_factor = it->get<double>();
   }
+  if (const auto it = section.find("bridge_tolerance"); it != section.end()) {
+    if (!it->is_number()) error("'bridge_tolerance' must be a number");
+    options.bridge_tolerance = it->get<double>();
+  }
   std::string why;
-  if (!options.is_valid(&why)) error(why);
+  if (!options.IsValid(&why)) error(why);
   return options;
 }
 
@@ -173,7 +180,7 @@ void ResidualObserver::step(double dt, const double* p, const double* u, const d
 namespace {
 std::vector<Gains> checked_gains(const ObserverOptions& options, int joints) {
   std::string why;
-  if (!options.is_valid(&why)) error(why);
+  if (!options.IsValid(&why)) error(why);
   return options.joint_gains(joints);
 }
 }  // namespace
@@ -183,6 +190,7 @@ MomentumObserver::MomentumObserver(const model::Model& model, const ObserverOpti
     : model_(model),
       data_(model),
       gap_factor_(options.gap_factor),
+      bridge_tolerance_(options.bridge_tolerance),
       residual_(checked_gains(options, model.nq), friction),
       q_(model.nq),
       dq_(model.nq),
@@ -206,6 +214,18 @@ void MomentumObserver::record_interval(double dt, bool gap) {
     double median = sorted[mid];
     if (window_count_ % 2 == 0) median = 0.5 * (median + *std::max_element(sorted, sorted + mid));
     median_dt_ = median;
+  }
+}
+
+void MomentumObserver::measure_mismatch(double dt, const double* q, const double* dq) {
+  mismatch_ = 0;
+  mismatch_joint_ = 0;
+  for (int j = 0; j < model_.nq; ++j) {
+    const double e = std::abs(q[j] - q_[j] - 0.5 * dt * (dq[j] + dq_[j]));
+    if (!(e <= mismatch_)) {
+      mismatch_ = e;
+      mismatch_joint_ = j;
+    }
   }
 }
 
@@ -237,10 +257,20 @@ SampleStatus MomentumObserver::step(double t, const double* q, const double* dq,
     if (restart_pending_) {
       status = SampleStatus::restarted_after_bad;
     } else {
-      const bool gap = median_dt_ > 0 && dt > gap_factor_ * median_dt_;
+      // A step this much longer than the median cannot be jitter (mo-sim's is clamped at 0.45
+      // periods each way, so at most 1.9 x): samples were lost.
+      constexpr double kLostSamples = 1.5;
+      const bool gap = median_dt_ > 0 && dt > kLostSamples * median_dt_;
       if (gap) {
-        status = SampleStatus::restarted_after_gap;
         last_gap_ = dt;
+        last_gap_mismatched_ = false;
+        if (dt > gap_factor_ * median_dt_) {
+          status = SampleStatus::restarted_after_gap;
+        } else {
+          measure_mismatch(dt, q, dq);
+          last_gap_mismatched_ = !(mismatch_ <= bridge_tolerance_);
+          status = last_gap_mismatched_ ? SampleStatus::restarted_after_gap : SampleStatus::bridged;
+        }
       }
       record_interval(dt, gap);
     }
@@ -251,7 +281,7 @@ SampleStatus MomentumObserver::step(double t, const double* q, const double* dq,
     restart_pending_ = false;
   }
   t_previous_ = t;
-  if (status != SampleStatus::ok) residual_.reset();
+  if (status != SampleStatus::ok && status != SampleStatus::bridged) residual_.reset();
   for (int j = 0; j < n; ++j) {
     q_[j] = q[j];
     dq_[j] = dq[j];

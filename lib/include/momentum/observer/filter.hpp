@@ -34,7 +34,7 @@ struct Gains {
   double k3 = 0.0;   // feed-forward gain (paper eq. 10-11), >= 0
 
   // False (with the reason in `why`, when non-null) for non-finite or out-of-range gains.
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
 };
 
 // Coefficients of one sample interval:

@@ -29,6 +29,9 @@ struct ObserveStreamOptions {
   // Append a column `restart`: 1 on rows where r does not continue from the previous row
   // (first row, restart after a gap or after NaN rows, and the NaN rows themselves), else 0.
   bool restart_column = false;
+  // Stop at the first row whose time does not increase (Reader::reject_row) instead of
+  // skipping it (mo-observe --strict).
+  bool strict = false;
   // Called every 65536 rows with the rows read so far and the last time, for a progress line.
   std::function<void(std::uint64_t rows, double t)> progress;
 };
@@ -36,8 +39,12 @@ struct ObserveStreamOptions {
 struct ObserveStreamSummary {
   std::uint64_t rows_written = 0;
   std::uint64_t invalid_rows = 0;   // rows with NaN/inf inputs (written with NaN residuals)
-  std::uint64_t rejected_rows = 0;  // rows whose time did not increase (not written)
+  std::uint64_t rejected_rows = 0;  // rows whose time did not increase (not written): the sum of
+  std::uint64_t duplicate_rows = 0;     //   rows equal to the previous row in every column
+  std::uint64_t out_of_order_rows = 0;  //   and the other rows whose time did not increase
   std::uint64_t restarts = 0;       // restarts after a gap or after invalid rows
+  std::uint64_t bridged_gaps = 0;   // gaps integrated across without a restart
+  double longest_bridge = 0;        // the longest of them, s
   double median_dt = 0;             // running median dt at the end, s
 };
 
@@ -55,9 +62,13 @@ class StreamObserver {
 
   // Reads `in` to its end, writing the header and every row to `out` (comments are passed
   // through). Restarts are reported through momentum::warn once each, located at the row where
-  // the observer starts again, with the time. A row whose time does not increase is rejected
-  // through Reader::reject_row (reported with its location and skipped; an error in strict
-  // mode). Throws what the reader and writer throw.
+  // the observer starts again, with the time and the reason. A row whose time does not
+  // increase (an exact duplicate of the previous row, or a row out of time order) is a timing
+  // fault, not a bad row: it is skipped and counted, the first few of each kind are reported
+  // through momentum::warn with their location, and the observer continues from the last good
+  // row as if the row had not been there; in strict mode it is rejected through
+  // Reader::reject_row (an error) when options.strict. At the end, one warning sums up the skipped rows and one the
+  // bridged gaps. Throws what the reader and writer throw.
   ObserveStreamSummary run(stream::Writer& out);
 
  private:

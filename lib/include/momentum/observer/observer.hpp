@@ -56,13 +56,20 @@ struct ObserverOptions {
   std::vector<double> k1{50.0};
   std::vector<double> k2{0.0};
   std::vector<double> k3{0.0};
-  // A sample more than gap_factor times the running median dt after the previous one restarts
-  // the observer. > 1.
+  // Lost samples. A step longer than 1.5 running-median steps is a gap. A gap of at most
+  // gap_factor median steps is bridged (the observer integrates across it, exactly for inputs
+  // linear over the gap) when the motion allows: for every joint, the measured position change
+  // across the gap agrees with the trapezoidal integral of the measured velocity,
+  // |q1 - q0 - dt (dq0 + dq1) / 2| <= bridge_tolerance. Otherwise, and for any longer gap, the
+  // observer restarts. gap_factor > 1 (<= 1.5: never bridge); bridge_tolerance >= 0, rad (m for
+  // a prismatic joint).
   double gap_factor = 5.0;
+  double bridge_tolerance = 1e-3;
 
   // False (with the reason in `why`, when non-null) for an order other than 1 or 2, empty
-  // lists, invalid gains (see Gains::is_valid) or gap_factor <= 1.
-  bool is_valid(std::string* why) const;
+  // lists, invalid gains (see Gains::IsValid), gap_factor <= 1 or a negative or non-finite
+  // bridge_tolerance.
+  bool IsValid(std::string* why) const;
 
   // The gains of each of `joints` joints. Throws momentum::Error ("observer: k1 has 3 values
   // for 6 joints") when a list has neither one value nor one per joint.
@@ -70,7 +77,8 @@ struct ObserverOptions {
 };
 
 // Reads the profile's "observer" section:
-//   {"order": 2, "k1": 50 or [..per joint..], "k2": 5, "k3": 0, "cutoff_hz": 8, "gap_factor": 5}
+//   {"order": 2, "k1": 50 or [..per joint..], "k2": 5, "k3": 0, "cutoff_hz": 8, "gap_factor": 5,
+//    "bridge_tolerance": 0.001}
 // "cutoff_hz" (number or list) sets k1 = 2 pi cutoff_hz; giving both k1 and cutoff_hz is an
 // error. Missing keys keep ObserverOptions' defaults. Throws momentum::Error ("observer: ...";
 // the caller adds the file name) for wrong types or invalid values. Unknown keys are listed in
@@ -117,7 +125,9 @@ class ResidualObserver {
 enum class SampleStatus {
   started,             // first good sample of the stream: r = 0
   ok,                  // the observer advanced
-  restarted_after_gap, // dt > gap_factor x median dt: started again here, r = 0
+  bridged,             // a gap (dt > 1.5 median dt) integrated across: the observer advanced
+  restarted_after_gap, // a gap too long (> gap_factor median dt) or whose positions do not
+                       // agree with the velocities (see ObserverOptions): started again, r = 0
   restarted_after_bad, // first good sample after samples with NaN/inf: started again, r = 0
   invalid,             // NaN or inf among t, q, dq, tau_m: outputs NaN, restart at the next
   time_not_increasing, // t <= previous t: nothing computed or written; state unchanged
@@ -143,8 +153,14 @@ class MomentumObserver {
 
   // Running median of the recent sample intervals (the last 16), s; 0 before two samples.
   double median_dt() const { return median_dt_; }
-  // The interval that caused the last restart_after_gap, s.
+  // The interval of the last gap (bridged or restarted_after_gap), s.
   double last_gap() const { return last_gap_; }
+  // Why the last restarted_after_gap restarted: true when the gap was short enough but the
+  // motion failed the check; then mismatch_joint() (0-based) and mismatch() (rad or m, the
+  // largest |q1 - q0 - dt (dq0 + dq1) / 2|) say where.
+  bool last_gap_mismatched() const { return last_gap_mismatched_; }
+  int mismatch_joint() const { return mismatch_joint_; }
+  double mismatch() const { return mismatch_; }
   // Time of the last good sample, s.
   double last_time() const { return t_previous_; }
   // Number of invalid samples before the last restarted_after_bad (for the restart message).
@@ -152,9 +168,13 @@ class MomentumObserver {
 
  private:
   void record_interval(double dt, bool gap);
+  // The largest |q1 - q0 - dt (dq0 + dq1) / 2| over the joints (q0, dq0: the previous sample,
+  // in q_ and dq_), into mismatch_ and mismatch_joint_.
+  void measure_mismatch(double dt, const double* q, const double* dq);
   const model::Model& model_;
   model::Data data_;
   double gap_factor_;
+  double bridge_tolerance_;
   ResidualObserver residual_;
   Eigen::VectorXd q_, dq_, p_, beta_, u_;
   bool have_time_ = false;  // a good sample has been seen (t_previous_ valid)
@@ -164,6 +184,9 @@ class MomentumObserver {
   double t_previous_ = 0;
   double median_dt_ = 0;
   double last_gap_ = 0;
+  bool last_gap_mismatched_ = false;
+  int mismatch_joint_ = 0;
+  double mismatch_ = 0;
   static constexpr int kWindow = 16;
   double window_[kWindow] = {};
   int window_count_ = 0;
