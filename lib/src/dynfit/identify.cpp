@@ -93,6 +93,7 @@ bool IdentifyOptions::IsValid(std::string* why) const {
   if (holdout_every != 0 && holdout_every < 2)
     return reject(why, "held-out period must be 0 (none) or >= 2");
   if (!(block > 0) || !std::isfinite(block)) return reject(why, "block length must be > 0");
+  if (!(min_speed >= 0) || !std::isfinite(min_speed)) return reject(why, "minimum speed must be >= 0");
   return true;
 }
 
@@ -117,6 +118,7 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
   fit_joint_.assign(static_cast<std::size_t>(n_), empty);
   held_joint_.assign(static_cast<std::size_t>(n_), empty);
   block_length_ = options_.block;
+  slow_until_.assign(static_cast<std::size_t>(n_), -std::numeric_limits<double>::infinity());
 }
 
 void Identifier::restart() {
@@ -154,6 +156,7 @@ void Identifier::begin_block() {
 void Identifier::accumulate(const Eigen::MatrixXd& Z, const Eigen::VectorXd& e, bool held_out) {
   auto& joints = held_out ? held_joint_ : fit_joint_;
   for (int i = 0; i < n_; ++i) {
+    if (Z.row(i).isZero(0.0) && e[i] == 0.0) continue;  // a row that does not count
     JointStats& s = joints[static_cast<std::size_t>(i)];
     s.G.selfadjointView<Eigen::Lower>().rankUpdate(Z.row(i).transpose());
     s.c.noalias() += Z.row(i).transpose() * e[i];
@@ -230,13 +233,17 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
   advance(Ff_, friction_prev_, friction_);
   advance(Fy_, y_prev_, y_);
   advance(Fpk_, pk_prev_, pk_);
-  if (t - t_start_ < options_.settle_time_constants / options_.filter_gain) return;
+  const double settle = options_.settle_time_constants / options_.filter_gain;
+  for (int j = 0; j < n_; ++j) {
+    if (std::abs(dq[j]) < options_.min_speed) slow_until_[static_cast<std::size_t>(j)] = t + settle;
+  }
+  if (t - t_start_ < settle) return;
 
   const double k = options_.filter_gain;
   const double g = c.gain;
   const Eigen::MatrixXd W = k * (Yp_ - g * Fp_) + g * Fb_;
   const Eigen::VectorXd y = g * Fy_ - k * (pk_ - g * Fpk_);
-  const Eigen::VectorXd e = y - W * theta_nominal_;
+  Eigen::VectorXd e = y - W * theta_nominal_;
   Eigen::MatrixXd Z = Eigen::MatrixXd::Zero(n_, columns_);
   for (int j = 0; j < fitted_; ++j) Z.col(j) = W.col(selected_[static_cast<std::size_t>(j)]);
   if (options_.fit_friction) {
@@ -245,6 +252,18 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
       Z(i, fitted_ + 2 * i + 1) = g * Ff_(i, 1);
     }
   }
+  // Rows of joints that were slow within the filter's memory do not count (friction there is
+  // presliding and Stribeck, which the Coulomb + viscous model cannot follow).
+  bool any = false;
+  for (int i = 0; i < n_; ++i) {
+    if (t < slow_until_[static_cast<std::size_t>(i)]) {
+      Z.row(i).setZero();
+      e[i] = 0.0;
+    } else {
+      any = true;
+    }
+  }
+  if (!any) return;
   bool held_out = false;
   if (options_.holdout_every > 0) {
     const auto segment = static_cast<long long>(std::floor(t_log_ / options_.holdout_segment));
@@ -420,7 +439,7 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
     target_sel = V.transpose() * scaled_delta;
     Eigen::VectorXd d = s.delta;
     int iterations = 0;
-    for (; iterations < 2000; ++iterations) {
+    for (; iterations < 20000; ++iterations) {
       for (int k = 0; k < n; ++k) {
         const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
         const model::StandardParameters theta = nominal + d.segment<kBodyParameters>(body_offset(k));
@@ -437,15 +456,29 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
     std::string names;
     for (int k : unphysical) names += (names.empty() ? "" : ", ") + model_.bodies[static_cast<std::size_t>(k)].name;
     if (!physical(d, nullptr)) {
-      // No physical point keeps every identified combination: take the physical one nearest
-      // to where the iteration ended.
-      for (int k = 0; k < n; ++k) {
-        const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
-        d.segment<kBodyParameters>(body_offset(k)) =
-            project_physical(nominal + d.segment<kBodyParameters>(body_offset(k)), floors[k]) - nominal;
-      }
+      // No physical point keeps every identified combination (the data or the model are
+      // inconsistent with a rigid body): of the nearest physical points to where the iteration
+      // ended and to the minimum-norm correction, take the one that fits the data better.
+      auto project_all = [&](Eigen::VectorXd delta) {
+        for (int k = 0; k < n; ++k) {
+          const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
+          delta.segment<kBodyParameters>(body_offset(k)) =
+              project_physical(nominal + delta.segment<kBodyParameters>(body_offset(k)), floors[k]) - nominal;
+        }
+        return delta;
+      };
+      auto cost = [&](const Eigen::VectorXd& delta) {
+        Eigen::VectorXd xs(columns_);
+        Eigen::VectorXd dsel(pi);
+        for (int j = 0; j < pi; ++j) dsel[j] = delta[selected_[static_cast<std::size_t>(j)]];
+        xs << dsel, Aff_inv * (b.tail(pf) - Aif.transpose() * dsel);
+        return xs.dot(A * xs) - 2 * b.dot(xs);
+      };
+      const Eigen::VectorXd from_iteration = project_all(d);
+      const Eigen::VectorXd from_minimum_norm = project_all(s.delta);
+      d = cost(from_iteration) <= cost(from_minimum_norm) ? from_iteration : from_minimum_norm;
       s.projections.push_back(names + ": not physical, and no physical body keeps every identified combination; "
-                              "projected to the nearest physical parameters (the fit is worse for it)");
+                              "projected to nearby physical parameters (the fit is worse for it)");
     } else {
       s.projections.push_back(names + ": minimum-norm correction not physical; moved along unidentified "
                               "directions (" + std::to_string(iterations) + " iterations), identified combinations kept");
@@ -494,6 +527,7 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
   };
   s.rms_before = rms(Eigen::VectorXd::Zero(p));
   s.rms_after = rms(s.delta);
+  s.rms_unprojected = rms(s.delta_unprojected);
   if (current && current->size() == p) s.rms_current = rms(*current);
   return s;
 }

@@ -58,6 +58,10 @@ struct IdentifyOptions {
   // (>= 2) held out; 0 holds nothing out.
   double holdout_segment = 10.0;
   int holdout_every = 5;
+  // A joint's equation does not count while the joint is slower than min_speed (rad/s, >= 0;
+  // 0 counts everything) nor for settle_time_constants / K after: there friction sticks and
+  // shows Stribeck and presliding effects the Coulomb + viscous model does not have.
+  double min_speed = 0.0;
   // Shortest block of the sandwich covariance, s (> 0).
   double block = 1.0;
 
@@ -112,6 +116,7 @@ struct IdentifySummary {
   // any (held_out true), else on the fitting data.
   bool held_out = false;
   Eigen::VectorXd rms_before, rms_after, rms_current;
+  Eigen::VectorXd rms_unprojected;  // after, with the correction before projection
   std::uint64_t samples_fit = 0, samples_held_out = 0, samples_skipped = 0;
   double seconds_fit = 0, seconds_held_out = 0;
   int restarts = 0;              // filter restarts (logs, gaps, bad values)
@@ -170,6 +175,7 @@ class Identifier {
   std::vector<Block> blocks_;
   double block_length_ = 0, block_start_ = 0;
   std::vector<JointStats> fit_joint_, held_joint_;
+  std::vector<double> slow_until_;  // per joint: its rows do not count before this time
   std::uint64_t skipped_ = 0;
   int restarts_ = 0;
   double seconds_fit_ = 0, seconds_held_ = 0;

@@ -1,0 +1,245 @@
+#include "momentum/dynfit/report.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "momentum/dynfit/regressor.hpp"
+#include "momentum/stream/error.hpp"
+
+namespace momentum::dynfit {
+
+namespace {
+
+nlohmann::json number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+nlohmann::json vector_json(const Eigen::VectorXd& v) {
+  nlohmann::json out = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) out.push_back(number(v[i]));
+  return out;
+}
+
+std::string format(const char* pattern, double x) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, pattern, x);
+  return buffer;
+}
+
+const char* excitation(const ParameterEstimate& p) {
+  if (!p.fitted) return "not fitted";
+  if (p.identifiability > 0.99) return "identified";
+  if (p.identifiability < 0.01) return "not excited";
+  return "combination";
+}
+
+// "1 m3 + 0.43 mz2 - 0.1 izz1": the terms of a combination, largest first (at most 6).
+std::string combination_text(const BaseParameter& base, const std::vector<std::string>& bodies) {
+  std::vector<std::pair<double, int>> terms;
+  for (Eigen::Index c = 0; c < base.direction.size(); ++c) {
+    if (std::abs(base.direction[c]) > 1e-3) terms.emplace_back(base.direction[c], static_cast<int>(c));
+  }
+  std::sort(terms.begin(), terms.end(), [](const auto& a, const auto& b) {
+    return std::abs(a.first) > std::abs(b.first);
+  });
+  std::string text;
+  for (std::size_t t = 0; t < terms.size() && t < 6; ++t) {
+    const double w = terms[t].first;
+    const int c = terms[t].second;
+    const std::string name = std::string(parameter_names()[static_cast<std::size_t>(c % kBodyParameters)]) + "(" +
+                             bodies[static_cast<std::size_t>(c / kBodyParameters)] + ")";
+    if (t == 0) {
+      text += format("%.3g ", w) + name;
+    } else {
+      text += (w < 0 ? " - " : " + ") + format("%.3g ", std::abs(w)) + name;
+    }
+  }
+  if (terms.size() > 6) text += " + ...";
+  return text;
+}
+
+}  // namespace
+
+std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier& identifier) {
+  const int n = model.nq;
+  if (in.find("q" + std::to_string(n + 1))) {
+    throw Error(in.name() + ": column q" + std::to_string(n + 1) + ": the log has more joints than the robot (" +
+                std::to_string(n) + ")");
+  }
+  const std::size_t t_col = in.require("t");
+  std::vector<std::size_t> q_col, dq_col, tau_col;
+  std::vector<double> tau_scale;
+  for (int j = 1; j <= n; ++j) {
+    const std::string index = std::to_string(j);
+    q_col.push_back(in.require("q" + index));
+    dq_col.push_back(in.require("dq" + index));
+    if (const auto tau = in.find("tau_m" + index)) {
+      tau_col.push_back(*tau);
+      tau_scale.push_back(1.0);
+    } else if (const auto current = in.find("i" + index)) {
+      tau_col.push_back(*current);
+      tau_scale.push_back(model.k_i[j - 1]);
+    } else {
+      throw Error(in.name() + ": missing column 'tau_m" + index + "' (or motor current 'i" + index + "')");
+    }
+  }
+  identifier.restart();
+  Eigen::VectorXd q(n), dq(n), tau(n);
+  double t_last = -std::numeric_limits<double>::infinity();
+  std::uint64_t rows = 0;
+  while (const double* row = in.next()) {
+    const double t = row[t_col];
+    if (std::isfinite(t) && !(t > t_last)) {
+      in.reject_row("time " + format("%.17g", t) + " does not increase");
+      continue;
+    }
+    if (std::isfinite(t)) t_last = t;
+    for (int j = 0; j < n; ++j) {
+      q[j] = row[q_col[static_cast<std::size_t>(j)]];
+      dq[j] = row[dq_col[static_cast<std::size_t>(j)]];
+      tau[j] = tau_scale[static_cast<std::size_t>(j)] * row[tau_col[static_cast<std::size_t>(j)]];
+    }
+    identifier.add(t, q, dq, tau);
+    ++rows;
+  }
+  return rows;
+}
+
+bool worse_than_current(const IdentifySummary& s) {
+  if (s.rms_current.size() != s.rms_after.size() || s.rms_after.size() == 0) return false;
+  return s.rms_after.squaredNorm() > s.rms_current.squaredNorm() * (1 + 1e-9);
+}
+
+std::string report_text(const Report& report) {
+  const IdentifySummary& s = report.summary;
+  std::string out;
+  auto line = [&](const std::string& text) { out += "mo-dynfit: " + text + "\n"; };
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer, "%d joints, %d inertial parameters fitted%s; friction: %s; filter K = %g 1/s",
+                s.nq, s.columns, s.gravity_only ? " (gravity only: m, m c)" : "",
+                s.fit_friction ? "Coulomb + viscous per joint, fitted jointly" : "not fitted (inputs compensated)",
+                report.options.filter_gain);
+  line(buffer);
+  std::snprintf(buffer, sizeof buffer,
+                "data: %.1f s fitted (%llu samples), %.1f s held out (%llu samples), %llu skipped, %d filter start%s, %d covariance blocks",
+                s.seconds_fit, static_cast<unsigned long long>(s.samples_fit), s.seconds_held_out,
+                static_cast<unsigned long long>(s.samples_held_out), static_cast<unsigned long long>(s.samples_skipped),
+                s.restarts, s.restarts == 1 ? "" : "s", s.blocks);
+  line(buffer);
+  std::snprintf(buffer, sizeof buffer,
+                "regressor: %d identifiable combinations of %d (rank tolerance %g), condition number %.4g (column-scaled), smallest singular value %.3g",
+                s.rank, s.columns, report.options.rank_tolerance, s.condition_number, s.smallest_singular_value);
+  line(buffer);
+  line(std::string("residual RMS per joint, Nm, on ") + (s.held_out ? "held-out data" : "the fitted data (nothing held out)") +
+       ": before (nominal URDF) -> after" + (report.has_current ? " (current profile)" : ""));
+  for (int j = 0; j < s.nq; ++j) {
+    std::snprintf(buffer, sizeof buffer, "  joint %d %-12s %9.4f -> %9.4f", j + 1,
+                  report.joint_names[static_cast<std::size_t>(j)].c_str(), s.rms_before[j], s.rms_after[j]);
+    std::string text = buffer;
+    if (report.has_current && s.rms_current.size() == s.nq) text += format("   (%.4f)", s.rms_current[j]);
+    if (!s.projections.empty()) text += format("   [%.4f before the projection]", s.rms_unprojected[j]);
+    line(text);
+  }
+  line("base parameters (identified combinations), nominal -> value +- standard error:");
+  for (std::size_t r = 0; r < s.base.size(); ++r) {
+    const BaseParameter& b = s.base[r];
+    std::snprintf(buffer, sizeof buffer, "  b%-2zu %11.5g -> %11.5g +- %-9.3g sv %.2g  ", r + 1, b.nominal, b.value,
+                  b.standard_error, b.singular_value);
+    line(buffer + combination_text(b, report.body_names));
+  }
+  line("parameters (body frame, about the body origin), nominal -> value +- standard error:");
+  for (const ParameterEstimate& p : s.parameters) {
+    std::snprintf(buffer, sizeof buffer, "  %-12s %-4s %11.5g -> %11.5g +- %-9.3g %s",
+                  report.body_names[static_cast<std::size_t>(p.body)].c_str(),
+                  parameter_names()[static_cast<std::size_t>(p.index)], p.nominal, p.value, p.standard_error,
+                  excitation(p));
+    line(buffer);
+  }
+  if (s.fit_friction) {
+    for (int j = 0; j < s.nq; ++j) {
+      std::snprintf(buffer, sizeof buffer, "friction joint %d: Coulomb %.4g +- %.2g Nm, viscous %.4g +- %.2g Nm s/rad", j + 1,
+                    s.coulomb[j], s.coulomb_se[j], s.viscous[j], s.viscous_se[j]);
+      line(buffer);
+    }
+  }
+  for (const auto& note : s.projections) line("physical consistency: " + note);
+  std::snprintf(buffer, sizeof buffer, "%.2f s", report.seconds);
+  line("fit time " + std::string(buffer) + "; " + report.outcome);
+  return out;
+}
+
+nlohmann::json fit_details(const Report& report) {
+  const IdentifySummary& s = report.summary;
+  return {{"gravity_only", s.gravity_only},
+          {"rank", s.rank},
+          {"columns", s.columns},
+          {"condition_number", number(s.condition_number)},
+          {"held_out", s.held_out},
+          {"rms_before", vector_json(s.rms_before)},
+          {"rms_after", vector_json(s.rms_after)},
+          {"seconds_fitted", s.seconds_fit},
+          {"seconds_held_out", s.seconds_held_out},
+          {"logs", report.inputs}};
+}
+
+nlohmann::json report_json(const Report& report) {
+  const IdentifySummary& s = report.summary;
+  nlohmann::json j;
+  j["inputs"] = report.inputs;
+  j["profile"] = report.profile;
+  j["options"] = {{"filter_gain", report.options.filter_gain},
+                  {"gravity_only", report.options.gravity_only},
+                  {"fit_friction", report.options.fit_friction},
+                  {"coulomb_speed", report.options.coulomb_speed},
+                  {"rank_tolerance", report.options.rank_tolerance},
+                  {"holdout_segment", report.options.holdout_segment},
+                  {"holdout_every", report.options.holdout_every}};
+  j["data"] = {{"samples_fitted", s.samples_fit},   {"samples_held_out", s.samples_held_out},
+               {"samples_skipped", s.samples_skipped}, {"seconds_fitted", s.seconds_fit},
+               {"seconds_held_out", s.seconds_held_out}, {"filter_starts", s.restarts},
+               {"covariance_blocks", s.blocks}};
+  j["rank"] = s.rank;
+  j["columns"] = s.columns;
+  j["condition_number"] = number(s.condition_number);
+  j["smallest_singular_value"] = number(s.smallest_singular_value);
+  j["held_out"] = s.held_out;
+  j["rms_before"] = vector_json(s.rms_before);
+  j["rms_after"] = vector_json(s.rms_after);
+  j["rms_unprojected"] = vector_json(s.rms_unprojected);
+  if (report.has_current) j["rms_current"] = vector_json(s.rms_current);
+  j["base"] = nlohmann::json::array();
+  for (const BaseParameter& b : s.base) {
+    nlohmann::json direction = nlohmann::json::object();
+    for (Eigen::Index c = 0; c < b.direction.size(); ++c) {
+      if (b.direction[c] != 0.0) {
+        direction[report.body_names[static_cast<std::size_t>(c / kBodyParameters)] + "." +
+                  parameter_names()[static_cast<std::size_t>(c % kBodyParameters)]] = b.direction[c];
+      }
+    }
+    j["base"].push_back({{"direction", direction},
+                         {"nominal", number(b.nominal)},
+                         {"value", number(b.value)},
+                         {"standard_error", number(b.standard_error)},
+                         {"singular_value", number(b.singular_value)},
+                         {"text", combination_text(b, report.body_names)}});
+  }
+  j["parameters"] = nlohmann::json::array();
+  for (const ParameterEstimate& p : s.parameters) {
+    j["parameters"].push_back({{"body", report.body_names[static_cast<std::size_t>(p.body)]},
+                               {"name", parameter_names()[static_cast<std::size_t>(p.index)]},
+                               {"nominal", number(p.nominal)},
+                               {"value", number(p.value)},
+                               {"standard_error", number(p.standard_error)},
+                               {"identifiability", number(p.identifiability)},
+                               {"excitation", excitation(p)}});
+  }
+  if (s.fit_friction) {
+    j["friction"] = {{"coulomb", vector_json(s.coulomb)}, {"coulomb_se", vector_json(s.coulomb_se)},
+                     {"viscous", vector_json(s.viscous)}, {"viscous_se", vector_json(s.viscous_se)}};
+  }
+  j["delta"] = vector_json(s.delta);
+  j["projections"] = s.projections;
+  j["seconds"] = report.seconds;
+  j["outcome"] = report.outcome;
+  return j;
+}
+
+}  // namespace momentum::dynfit
