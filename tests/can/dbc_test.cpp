@@ -226,6 +226,11 @@ TEST(Dbc, ErrorsNameTheLine) {
   expect_error("BO_ 1 M: 8 X\nhello world;\n", "bad.dbc:2: unknown statement 'hello'");
   expect_error("BO_ 1 M: 8 X\nEV_ never ends\n", "bad.dbc:2: missing ';' after EV_");
   expect_error("BO_ 1 M: 8 X\n SG_ S : 0|8@1+ (0,0) [0|0] \"\" X\n", "bad.dbc:2: signal S has a zero or non-finite factor");
+  // Found by the fuzzer: a raw value beyond int64 was converted with undefined behaviour.
+  expect_error("BO_ 1 M: 8 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\nVAL_ 1 S 4.2e44 \"huge\" ;\n",
+               "bad.dbc:3: value description for a raw value that is not a 64-bit integer");
+  expect_error("BO_ 1 M: 8 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\nVAL_ 1 S 1.5 \"half\" ;\n",
+               "bad.dbc:3: value description for a raw value that is not a 64-bit integer");
 }
 
 TEST(Dbc, LoadNamesTheFile) {

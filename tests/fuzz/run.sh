@@ -1,10 +1,20 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (candump text, DBC) with clang and runs each briefly, seeded
-# with the captures and DBC files of tests/data/can. For CI: bash tests/fuzz/run.sh [SECONDS]
-# (default 20 per target). Exits non-zero when a fuzzer finds a crash, a leak or undefined
-# behaviour; the reproducer is left in the work directory and its path printed.
+# Builds the libFuzzer targets (candump text, DBC) with clang and runs each from the captures and
+# DBC files of tests/data/can plus the inputs that once failed (tests/fuzz/regressions/<target>).
+#   tests/fuzz/run.sh [RUNS]      RUNS inputs per target (default 100000) with a fixed seed, so
+#                                 that CI is reproducible: the same tree gives the same verdict
+#   FUZZ_SECONDS=600 tests/fuzz/run.sh    explore for that long instead, with a random seed
+# Exits non-zero when a fuzzer finds a crash, a leak or undefined behaviour; the reproducer is
+# left in the work directory and its path printed (add it to tests/fuzz/regressions/<target>/).
 set -euo pipefail
-seconds=${1:-20}
+runs=${1:-100000}
+if [[ -n "${FUZZ_SECONDS:-}" ]]; then
+  budget=(-max_total_time="$FUZZ_SECONDS")
+  what="for ${FUZZ_SECONDS}s"
+else
+  budget=(-runs="$runs" -seed=1)
+  what="$runs inputs, seed 1"
+fi
 src=$(cd "$(dirname "$0")/../.." && pwd)
 work=${FUZZ_WORK:-$(mktemp -d /tmp/momentum-fuzz.XXXXXX)}
 cxx=${FUZZ_CXX:-$(command -v clang++-14 || command -v clang++ || true)}
@@ -26,8 +36,11 @@ for target in candump dbc; do
   else
     cp "$src"/tests/data/can/*.dbc "$src"/tests/data/can/formats/*.dbc "$corpus"/
   fi
-  echo "fuzz: running $target for ${seconds}s"
-  if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 "./fuzz_$target" -max_total_time="$seconds" -max_len=4096 \
+  if [[ -d "$src/tests/fuzz/regressions/$target" ]]; then
+    cp "$src/tests/fuzz/regressions/$target"/* "$corpus"/
+  fi
+  echo "fuzz: running $target ($what)"
+  if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 "./fuzz_$target" "${budget[@]}" -max_len=4096 \
         -print_final_stats=1 -artifact_prefix="$work/${target}-" "$corpus" > "$work/$target.log" 2>&1); then
     echo "fuzz: $target FAILED; see $work/$target.log and $work/${target}-*" >&2
     tail -30 "$work/$target.log" >&2

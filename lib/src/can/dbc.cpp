@@ -459,6 +459,9 @@ void DbcParser::parse_value_table() {
       break;
     }
     const Number value = number("value");
+    // A description belongs to a raw (integer) value; 3.0 is taken as 3, 1.5 or 1e30 is wrong.
+    if (!value.is_integer && !(value.value == std::trunc(value.value) && std::abs(value.value) < 0x1p63))
+      fail("value description for a raw value that is not a 64-bit integer");
     std::string text = string_literal("value description");
     choices.emplace_back(value.is_integer ? value.integer : static_cast<std::int64_t>(value.value), std::move(text));
   }
