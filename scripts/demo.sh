@@ -28,7 +28,7 @@ for rate in 125 1000; do
   set +e
   mo-sim -p "$arm" --trajectory paper --rate "$rate" --duration 3600 --seed 2 --output-format bin |
     mo-observe -p fitted.json --order 1 --k1 50 |
-    mo-calibrate -p fitted.json -o "calibrated-$rate.json" > "calibration-$rate.txt" 2>&1
+    mo-calibrate -p fitted.json --skip 0.5 -o "calibrated-$rate.json" > "calibration-$rate.txt" 2>&1
   statuses=("${PIPESTATUS[@]}")
   set -e
   if [[ ${statuses[*]} != "0 0 0" ]]; then
@@ -42,7 +42,7 @@ for rate in 125 1000; do
   mo-sim -p "$arm" --trajectory paper --rate "$rate" --collisions 50 --truth "truth-$rate.csv" --seed 3 |
     mo-observe -p fitted.json --order 1 --k1 50 > "observed-$rate.csv"
   status=0
-  mo-detect -p "calibrated-$rate.json" "observed-$rate.csv" > "events-$rate.csv" || status=$?
+  mo-detect -p "calibrated-$rate.json" --skip 0.5 "observed-$rate.csv" > "events-$rate.csv" || status=$?
   ((status <= 1)) || { echo "mo-detect failed" >&2; exit 1; }
   mo-eval --truth "truth-$rate.csv" "events-$rate.csv"
   mo-plot -o "residuals-$rate.png" -p "calibrated-$rate.json" --events "events-$rate.csv" \

@@ -35,6 +35,8 @@ int main(int argc, char** argv) {
   app.add_option("--rest-time", options.rest_rule.time, "... held for this long, s (0.5)")->type_name("SECONDS");
   app.add_option("--hangover", options.rest_rule.hangover, "rows stay slow this long after |dq| rises, s (0.1)")
       ->type_name("SECONDS");
+  app.add_option("--skip", options.skip, "seconds at the start of the stream that do not count (0)")
+      ->type_name("SECONDS");
   app.add_flag("--no-rest", no_rest, "no rest state: one threshold per joint for all rows");
   app.add_option("--contact-ratio", options.contact_ratio, "a max over RATIO x p99.9, or x the next peak, looks like a contact (2)")
       ->type_name("RATIO");
@@ -55,12 +57,10 @@ int main(int argc, char** argv) {
     std::vector<std::string> inputs = tool.inputs();
     if (inputs.empty()) inputs.push_back("-");
     std::vector<detect::Signal> signals;
-    for (const auto& name : cli::split_list(signals_option)) {
-      try {
-        signals.push_back(detect::parse_signal(name));
-      } catch (const Error& e) {
-        throw cli::UsageError(std::string("--signal: ") + e.what());
-      }
+    try {
+      signals = detect::parse_signal_list(signals_option);
+    } catch (const Error& e) {
+      throw cli::UsageError(std::string("--signal: ") + e.what());
     }
     std::vector<detect::Calibrator> calibrators;
     std::size_t joints = 0;
@@ -136,14 +136,7 @@ int main(int argc, char** argv) {
                                           : nlohmann::json{{"percent", options.margin_percent}};
     model::append_provenance(document, "mo-calibrate", details);
     const std::string destination = output.empty() ? tool.profile() : output;
-    // A profile written to another folder keeps pointing at the same URDF.
-    namespace fs = std::filesystem;
-    const fs::path from = fs::absolute(fs::path(tool.profile())).parent_path();
-    const fs::path to = fs::absolute(fs::path(destination)).parent_path();
-    if (from != to && document.contains("urdf") && document["urdf"].is_string() &&
-        !fs::path(document["urdf"].get<std::string>()).is_absolute())
-      document["urdf"] = fs::relative(fs::absolute(profile->urdf), to).generic_string();
-    model::save_profile_atomically(document, destination);
+    model::save_profile_as(document, *profile, destination);
     return cli::kSuccess;
   });
 }

@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
   app.add_option("--hold", options.hold, "... for this many seconds (default 0.2)")->type_name("SECONDS");
   auto* band_option = app.add_option("--onset-band", onset_band, "onset band as a fraction of the threshold")
                           ->type_name("FRACTION");
+  app.add_option("--skip", options.skip, "seconds at the start of the stream that do not count (0)")
+      ->type_name("SECONDS");
   app.add_flag("--pass", pass, "pass the stream through with a collision column instead of events");
   app.add_option("--events", events_path, "with --pass: also write the events to FILE")->type_name("FILE");
   app.add_option("--on-collision", command, "run CMD (sh -c) per event, without waiting")->type_name("CMD");
@@ -194,7 +196,7 @@ int main(int argc, char** argv) {
       if (runner) runner->wait_all();
       if (own_fd >= 0) ::close(own_fd);
       if (stats) {
-        std::fprintf(stderr, "mo-detect: %" PRIu64 " rows, %" PRIu64 " skipped, %" PRIu64 " events%s\n",
+        std::fprintf(stderr, "mo-detect: %" PRIu64 " rows, %" PRIu64 " bad rows skipped, %" PRIu64 " events%s\n",
                      detector.rows(), in->rows_skipped(), detector.events(), interrupted ? " (interrupted)" : "");
         if (!idq.empty()) {
           std::fprintf(stderr, "mo-detect: rows at rest per joint:");

@@ -51,12 +51,10 @@ int main(int argc, char** argv) {
     auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front(), reader_options);
     const std::size_t it = in->require("t");
     std::vector<detect::Signal> signals;
-    for (const auto& name : cli::split_list(signals_option)) {
-      try {
-        signals.push_back(detect::parse_signal(name));
-      } catch (const Error& e) {
-        throw cli::UsageError(std::string("--signal: ") + e.what());
-      }
+    try {
+      signals = detect::parse_signal_list(signals_option);
+    } catch (const Error& e) {
+      throw cli::UsageError(std::string("--signal: ") + e.what());
     }
     if (signals.empty()) {
       if (in->find("r1")) signals.push_back(detect::Signal::r);

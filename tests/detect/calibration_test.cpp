@@ -444,3 +444,22 @@ TEST(Calibrator, RestStateSeesASmallPushOnAHoldThatTheSingleThresholdMisses) {
     }
   }
 }
+
+TEST(Calibrator, SkipLeavesTheStartOfEveryStreamOut) {
+  // Each stream starts with a 5 Nm transient over its first 100 rows, then noise under 1 Nm
+  // (times exact in binary).
+  Rows r;
+  for (int k = 0; k < 2000; ++k) {
+    r.t.push_back(10.0 + k / 1024.0);
+    r.x.push_back(k < 100 ? 5.0 : 0.9 * std::sin(k * 0.37));
+  }
+  CalibrationOptions o;
+  o.margin_nm = 0;
+  o.skip = 100 / 1024.0;
+  Calibrator c(Signal::mu, 1, o);
+  feed(c, r, "a");
+  feed(c, r, "b");
+  const auto result = c.result();
+  EXPECT_LT(result.thresholds.joints[0].moving, 0.9 + 1e-12);
+  EXPECT_EQ(result.rows, 2u * 1900u);
+}

@@ -385,3 +385,18 @@ TEST(Detector, SlowStateHoldsForTheHangoverAfterTheJointPicksUpSpeed) {
   ASSERT_EQ(r0.rows.size(), 2u);
   EXPECT_DOUBLE_EQ(r0.rows[0].t_detect, 1010 * kDt);
 }
+
+TEST(Detector, SkipKeepsTheFirstSecondsFromFiring) {
+  // An observer start-up transient over the threshold on rows 0..19; skip 30 rows.
+  DetectorOptions o;
+  o.skip = 30 * kDt;
+  Detector d(constant({1}), o, false);
+  auto r = run(d, 500, [](int k, int) { return k < 20 || (k >= 300 && k < 310) ? 2.0 : 0.0; }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r.rows[0].t_detect, 300 * kDt);
+  // A contact still over the threshold when the skip ends fires on the first judged row.
+  Detector late(constant({1}), o, false);
+  auto r2 = run(late, 500, [](int k, int) { return k < 40 ? 2.0 : 0.0; }, moving);
+  ASSERT_EQ(r2.rows.size(), 2u);
+  EXPECT_DOUBLE_EQ(r2.rows[0].t_detect, 30 * kDt);
+}

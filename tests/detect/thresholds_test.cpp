@@ -83,4 +83,8 @@ TEST(Thresholds, MalformedEntriesAreErrorsNamingTheProfile) {
   EXPECT_THROW(constant_thresholds(Signal::mu, {1, 2}, 3), momentum::Error);
   EXPECT_THROW(constant_thresholds(Signal::mu, {0}, 3), momentum::Error);
   EXPECT_THROW(parse_signal("tau"), momentum::Error);
+  EXPECT_EQ(parse_signal_list("mu,r"), (std::vector<Signal>{Signal::mu, Signal::r}));
+  EXPECT_TRUE(parse_signal_list("").empty());
+  EXPECT_THROW(parse_signal_list("mu,"), momentum::Error);
+  EXPECT_THROW(parse_signal_list("r,tau"), momentum::Error);
 }

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 
 #include "momentum/stream/error.hpp"
@@ -170,6 +171,16 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
     values.push_back(*value);
   }
   return values;
+}
+
+void write_text(const std::string& path, const std::string& text, const std::string& what) {
+  if (path == "-") {
+    std::cout << text << std::flush;
+    return;
+  }
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  file << text;
+  if (!file.flush()) throw Error(path + ": cannot write the " + what);
 }
 
 }  // namespace momentum::cli

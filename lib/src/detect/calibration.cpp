@@ -238,6 +238,7 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(margin_percent) && margin_percent >= 0)) return bad("margin percent must be >= 0");
   if (!rest_rule.IsValid(why)) return false;
   if (!(envelope_bin > 0 && std::isfinite(envelope_bin))) return bad("envelope bin width must be > 0");
+  if (!(skip >= 0 && std::isfinite(skip))) return bad("skip must be >= 0 s");
   if (!(contact_ratio > 1 && std::isfinite(contact_ratio))) return bad("contact ratio must be > 1");
   return true;
 }
@@ -267,6 +268,7 @@ void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
   }
   have_velocity_ = have_velocity_ && have_velocity;
   t_prev_ = kNaN;
+  t_start_ = kNaN;
   for (auto& J : joints_) J.tracker.restart();
 }
 

@@ -21,6 +21,7 @@ bool DetectorOptions::IsValid(std::string* why) const {
   if (!(release > 0 && release <= 1)) return bad("release must be in (0, 1]");
   if (!(hold >= 0 && std::isfinite(hold))) return bad("hold must be >= 0 s");
   if (onset_band && !(*onset_band > 0 && *onset_band <= 1)) return bad("onset band must be in (0, 1]");
+  if (!(skip >= 0 && std::isfinite(skip))) return bad("skip must be >= 0 s");
   return true;
 }
 
@@ -37,8 +38,10 @@ Detector::Detector(Thresholds thresholds, DetectorOptions options, bool have_vel
 }
 
 const Event* Detector::step(double t, const double* x, const double* dq) {
+  if (rows_ == 0) t_first_ = t;
   ++rows_;
   t_last_ = t;
+  const bool judged = !(t - t_first_ < options_.skip);
   bool any_fires = false, all_quiet = true;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     Joint& J = joints_[j];
@@ -80,7 +83,7 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
       J.in_band = false;
       J.run_peak = std::max(J.run_peak, magnitude);
     }
-    J.over = stat > threshold ? J.over + 1 : 0;
+    J.over = judged && stat > threshold ? J.over + 1 : 0;
     fires_[j] = J.over >= options_.min_samples;
     quiet_[j] = !(stat >= options_.release * threshold);
     any_fires = any_fires || fires_[j];

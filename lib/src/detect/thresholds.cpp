@@ -26,6 +26,17 @@ Signal parse_signal(std::string_view name) {
   throw Error("unknown signal '" + std::string(name) + "' (mu or r)");
 }
 
+std::vector<Signal> parse_signal_list(std::string_view comma_separated) {
+  std::vector<Signal> signals;
+  if (comma_separated.empty()) return signals;
+  for (;;) {
+    const std::size_t comma = comma_separated.find(',');
+    signals.push_back(parse_signal(comma_separated.substr(0, comma)));
+    if (comma == std::string_view::npos) return signals;
+    comma_separated.remove_prefix(comma + 1);
+  }
+}
+
 bool RestRule::IsValid(std::string* why) const {
   if (!positive(velocity)) {
     if (why) *why = "rest velocity must be > 0, not " + fmt(velocity);

@@ -306,4 +306,14 @@ void append_provenance(nlohmann::json& document, const std::string& tool,
   list.push_back({{"tool", tool}, {"version", kVersion}, {"time", stamp}, {"details", details}});
 }
 
+void save_profile_as(nlohmann::json document, const Profile& source, const std::filesystem::path& destination) {
+  namespace fs = std::filesystem;
+  const fs::path from = fs::absolute(source.path).parent_path();
+  const fs::path to = fs::absolute(destination).parent_path();
+  if (from != to && document.contains("urdf") && document["urdf"].is_string() &&
+      !fs::path(document["urdf"].get<std::string>()).is_absolute())
+    document["urdf"] = fs::relative(fs::absolute(source.urdf), to).generic_string();
+  save_profile_atomically(document, destination);
+}
+
 }  // namespace momentum::model

@@ -123,4 +123,8 @@ std::vector<std::string> split_list(const std::string& text, char separator = ',
 // Parses "1.5,2,3" into doubles; throws UsageError naming `option` on a bad number.
 std::vector<double> parse_number_list(const std::string& text, const std::string& option);
 
+// Writes `text` (a report, a document) to the file `path`, replacing it, or to stdout when path
+// is "-". Throws momentum::Error "PATH: cannot write the WHAT" when the file cannot be written.
+void write_text(const std::string& path, const std::string& text, const std::string& what);
+
 }  // namespace momentum::cli

@@ -170,6 +170,9 @@ struct CalibrationOptions {
   // usual excursions recur, a contact does not), or, with 1000 s or more of that state (so that
   // 0.1% of it outlasts a contact), contact_ratio times its p99.9.
   double contact_ratio = 2.0;
+  // Seconds at the start of each stream that do not count (the observer settles), >= 0. The
+  // motion states advance through them all the same.
+  double skip = 0;
   // Fewest rows for a slow or rest threshold; with fewer, those rows are judged by the next
   // rule down (rest -> slow -> moving) and calibrated with it.
   std::uint64_t min_state_samples = 100;
@@ -220,11 +223,14 @@ class Calibrator {
   void add(double t, const double* x, const double* dq, Where&& where) {
     const double dt = std::isnan(t_prev_) || !(t > t_prev_) ? 0.0 : t - t_prev_;
     t_prev_ = t;
-    ++rows_;
+    if (std::isnan(t_start_)) t_start_ = t;
+    const bool counted = !(t - t_start_ < options_.skip);
+    rows_ += counted;
     for (std::size_t j = 0; j < joints_.size(); ++j) {
       auto& J = joints_[j];
       MotionState state = MotionState::moving;
       if (dq && options_.rest_state) state = J.tracker.update(t, dq[j], x[j]);
+      if (!counted) continue;
       if (state == MotionState::rest) {
         J.rest.add(x[j] - J.tracker.baseline(), t, dt, where);
         J.rest_absolute.add(x[j], t, dt, where);
@@ -254,6 +260,7 @@ class Calibrator {
   bool have_velocity_ = true;
   std::uint64_t rows_ = 0;
   double t_prev_ = NAN;
+  double t_start_ = NAN;  // first row of the current stream
 };
 
 // The report mo-calibrate prints: one header comment, one row per joint and state (moving,

@@ -26,6 +26,8 @@ struct DetectorOptions {
   std::optional<double> onset_band;
   // Use the velocity envelope of a joint when the thresholds hold one and dq is given.
   bool use_envelope = true;
+  // Seconds from the first row during which no joint fires (the observer settles), >= 0.
+  double skip = 0;
   bool IsValid(std::string* why) const;
 };
 
@@ -85,6 +87,7 @@ class Detector {
   std::uint64_t next_id_ = 1;
   std::uint64_t rows_ = 0;
   double t_last_ = 0;
+  double t_first_ = 0;
   double quiet_since_ = 0;
   bool quiet_run_ = false;
 };

@@ -34,6 +34,8 @@ enum class Signal { mu, r };
 std::string_view signal_name(Signal signal);  // "mu" or "r"
 // "mu" or "r"; throws momentum::Error otherwise.
 Signal parse_signal(std::string_view name);
+// "mu,r" -> {mu, r}; "" -> {}. Throws momentum::Error naming the first unknown item.
+std::vector<Signal> parse_signal_list(std::string_view comma_separated);
 
 // The motion states of a joint (see motion.hpp): slow when |dq| is below `velocity`, and for
 // `hangover` seconds after it rises above it; at rest after `time` seconds below it.

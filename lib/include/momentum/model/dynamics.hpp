@@ -161,3 +161,26 @@ void point_jacobian(const Model& model, DataTpl<S>& data, InVector<S> q, int bod
 }  // namespace momentum::model
 
 #include "momentum/model/dynamics_impl.hpp"
+
+// The double versions are compiled once, in lib/src/model/dynamics.cpp, instead of in every file
+// that includes this header (they cost seconds of compile time each); other scalars, such as
+// ceres::Jet, are instantiated where they are used.
+namespace momentum::model {
+extern template void forward_kinematics<double>(const Model&, Data&, InVector<double>);
+extern template void mass_matrix<double>(const Model&, Data&, InVector<double>, MatrixX<double>&);
+extern template void gravity_torque<double>(const Model&, Data&, InVector<double>, VectorX<double>&);
+extern template void coriolis_times_velocity<double>(const Model&, Data&, InVector<double>,
+    InVector<double>, VectorX<double>&);
+extern template void coriolis_transpose_times_velocity<double>(const Model&, Data&, InVector<double>,
+    InVector<double>, VectorX<double>&);
+extern template void momentum_and_beta<double>(const Model&, Data&, InVector<double>, InVector<double>,
+    VectorX<double>&, VectorX<double>&);
+extern template void inverse_dynamics<double>(const Model&, Data&, InVector<double>, InVector<double>,
+    InVector<double>, VectorX<double>&);
+extern template double kinetic_energy<double>(const Model&, Data&, InVector<double>, InVector<double>);
+extern template double potential_energy<double>(const Model&, Data&, InVector<double>);
+extern template Eigen::Matrix<double, 3, 1> point_position<double>(const Model&, Data&, InVector<double>,
+    int, InVector3<double>);
+extern template void point_jacobian<double>(const Model&, Data&, InVector<double>, int,
+    InVector3<double>, Matrix3X<double>&);
+}  // namespace momentum::model

@@ -93,4 +93,10 @@ void save_profile_atomically(const nlohmann::json& document, const std::filesyst
 void append_provenance(nlohmann::json& document, const std::string& tool,
                        const nlohmann::json& details);
 
+// Saves `document`, an edited copy of `source.document`, at `destination` with
+// save_profile_atomically. When the destination is in another folder than `source.path`, a
+// relative "urdf" is rewritten relative to the destination so the new profile names the same
+// URDF file. Throws like save_profile_atomically.
+void save_profile_as(nlohmann::json document, const Profile& source, const std::filesystem::path& destination);
+
 }  // namespace momentum::model
