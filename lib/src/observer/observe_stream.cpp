@@ -119,9 +119,27 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   std::string first_skipped;
   std::uint64_t rows = 0;
   double t = 0;
-  while (const double* row = in_.next()) {
-    ++rows;
-    if (options_.progress && (rows & 0xffff) == 0) options_.progress(rows, t);
+  // A row whose time stamp jumps ahead (a gap) is held until the next row shows whether it
+  // was written early: then it alone is skipped, not every row it overtook (and a corrupt time
+  // stamp far in the future does not end the log). This delays output by one row after a gap.
+  std::vector<double> held(width_in);
+  bool holding = false;
+  std::string held_where;
+
+  // Counts, reports (the first few of each kind) and skips a row whose time does not increase.
+  auto skip = [&](bool duplicate, const std::string& where, const std::string& message) {
+    if (options_.strict) throw Error(where + ": " + message);
+    ++summary.rejected_rows;
+    std::uint64_t& count = duplicate ? summary.duplicate_rows : summary.out_of_order_rows;
+    ++count;
+    if (first_skipped.empty()) first_skipped = where;
+    if (count <= kReportedPerKind) warn(where + ": " + message + ": skipped");
+  };
+
+  // Steps the observer with one row and writes it. `where`: its location, or nullptr for the
+  // row the reader returned last.
+  auto process = [&](const double* row, bool duplicate, const std::string* where) {
+    auto here = [&] { return where ? *where : in_.where(); };
     t = row[t_index_];
     for (int j = 0; j < n; ++j) {
       q[j] = row[q_index_[j]];
@@ -131,34 +149,23 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     const double previous_t = observer_.last_time();
     const SampleStatus status = observer_.step(t, q.data(), dq.data(), tau.data(), r.data(),
                                                tau_f.data(), mu.data());
-    const bool duplicate = have_previous_row &&
-                           std::equal(row, row + width_in, previous_row.begin(),
-                                      [](double a, double b) { return a == b || (a != a && b != b); });
-    std::copy(row, row + width_in, previous_row.begin());
-    have_previous_row = true;
     switch (status) {
-      case SampleStatus::time_not_increasing: {
-        ++summary.rejected_rows;
-        const std::string what = duplicate ? "duplicate row" : "time does not increase";
-        const std::string message = what + ": t=" + exact(t) + " after t=" + exact(previous_t);
-        if (options_.strict) in_.reject_row(message);
-        std::uint64_t& count = duplicate ? summary.duplicate_rows : summary.out_of_order_rows;
-        ++count;
-        if (first_skipped.empty()) first_skipped = in_.where();
-        if (count <= kReportedPerKind) warn(in_.where() + ": " + message + ": skipped");
-        continue;
-      }
+      case SampleStatus::time_not_increasing:
+        skip(duplicate, here(),
+             std::string(duplicate ? "duplicate row" : "time does not increase") + ": t=" + exact(t) +
+                 " after t=" + exact(previous_t));
+        return;
       case SampleStatus::bridged:
         ++summary.bridged_gaps;
         summary.longest_bridge = std::max(summary.longest_bridge, observer_.last_gap());
         break;
       case SampleStatus::invalid:
-        if (bad_run_start.empty()) bad_run_start = in_.where();
+        if (bad_run_start.empty()) bad_run_start = here();
         ++summary.invalid_rows;
         break;
       case SampleStatus::restarted_after_gap:
         ++summary.restarts;
-        warn(in_.where() + ": observer restarted at t=" + exact(t) + " after a gap of " +
+        warn(here() + ": observer restarted at t=" + exact(t) + " after a gap of " +
              short_number(observer_.last_gap()) + " s (median dt " +
              short_number(observer_.median_dt()) + " s)" +
              (observer_.last_gap_mismatched()
@@ -170,7 +177,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       case SampleStatus::restarted_after_bad: {
         ++summary.restarts;
         const std::uint64_t bad = observer_.last_bad_run();
-        warn(in_.where() + ": observer restarted at t=" + exact(t) + " after " +
+        warn(here() + ": observer restarted at t=" + exact(t) + " after " +
              std::to_string(bad) + " row" + (bad == 1 ? "" : "s") + " with nan or inf from " +
              bad_run_start);
         bad_run_start.clear();
@@ -195,7 +202,38 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     }
     out.row(row_out.data());
     ++summary.rows_written;
+  };
+
+  while (const double* row = in_.next()) {
+    ++rows;
+    if (options_.progress && (rows & 0xffff) == 0) options_.progress(rows, t);
+    const double t_row = row[t_index_];
+    const bool duplicate = have_previous_row &&
+                           std::equal(row, row + width_in, previous_row.begin(),
+                                      [](double a, double b) { return a == b || (a != a && b != b); });
+    std::copy(row, row + width_in, previous_row.begin());
+    have_previous_row = true;
+    if (holding) {
+      holding = false;
+      if (t_row < held[t_index_] && t_row > observer_.last_time()) {
+        // The next row falls between the last good row and the held one: the held row was
+        // written early.
+        skip(false, held_where,
+             "row written early: t=" + exact(held[t_index_]) + " is ahead of the next row's t=" +
+                 exact(t_row));
+      } else {
+        process(held.data(), false, &held_where);
+      }
+    }
+    if (!duplicate && std::isfinite(t_row) && observer_.is_gap(t_row)) {
+      std::copy(row, row + width_in, held.begin());
+      held_where = in_.where();
+      holding = true;
+      continue;
+    }
+    process(row, duplicate, nullptr);
   }
+  if (holding) process(held.data(), false, &held_where);
   if (summary.rejected_rows) {
     std::string text = std::to_string(summary.rejected_rows) + " row" +
                        (summary.rejected_rows == 1 ? "" : "s") + " skipped for their time (";

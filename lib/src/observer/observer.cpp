@@ -257,10 +257,7 @@ SampleStatus MomentumObserver::step(double t, const double* q, const double* dq,
     if (restart_pending_) {
       status = SampleStatus::restarted_after_bad;
     } else {
-      // A step this much longer than the median cannot be jitter (mo-sim's is clamped at 0.45
-      // periods each way, so at most 1.9 x): samples were lost.
-      constexpr double kLostSamples = 1.5;
-      const bool gap = median_dt_ > 0 && dt > kLostSamples * median_dt_;
+      const bool gap = is_gap(t);
       if (gap) {
         last_gap_ = dt;
         last_gap_mismatched_ = false;

@@ -64,7 +64,9 @@ class StreamObserver {
   // through). Restarts are reported through momentum::warn once each, located at the row where
   // the observer starts again, with the time and the reason. A row whose time does not
   // increase (an exact duplicate of the previous row, or a row out of time order) is a timing
-  // fault, not a bad row: it is skipped and counted, the first few of each kind are reported
+  // fault, not a bad row: it is skipped and counted (a row after a gap is held until the next
+  // row arrives, and skipped alone when the next row shows it was written early, instead of
+  // the rows it overtook), the first few of each kind are reported
   // through momentum::warn with their location, and the observer continues from the last good
   // row as if the row had not been there; in strict mode it is rejected through
   // Reader::reject_row (an error) when options.strict. At the end, one warning sums up the skipped rows and one the

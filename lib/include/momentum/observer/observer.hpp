@@ -153,6 +153,9 @@ class MomentumObserver {
 
   // Running median of the recent sample intervals (the last 16), s; 0 before two samples.
   double median_dt() const { return median_dt_; }
+  // True when a sample at time t would come after a gap (more than 1.5 running-median steps
+  // after the last good sample).
+  bool is_gap(double t) const { return median_dt_ > 0 && t - t_previous_ > kLostSamples * median_dt_; }
   // The interval of the last gap (bridged or restarted_after_gap), s.
   double last_gap() const { return last_gap_; }
   // Why the last restarted_after_gap restarted: true when the gap was short enough but the
@@ -188,6 +191,9 @@ class MomentumObserver {
   int mismatch_joint_ = 0;
   double mismatch_ = 0;
   static constexpr int kWindow = 16;
+  // A step this much longer than the median means lost samples (or a jitter of more than a
+  // quarter period each way): such a step is checked before it is integrated.
+  static constexpr double kLostSamples = 1.5;
   double window_[kWindow] = {};
   int window_count_ = 0;
   int window_next_ = 0;
