@@ -14,7 +14,6 @@
 #include "momentum/model/inertial_corrections.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/observer/observer.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum;
@@ -30,14 +29,19 @@ int main(int argc, char** argv) {
   std::string output, report_path;
   bool update = false, force = false, no_friction = false;
   double filter_gain = 0;
+  // Velocity noise reaches the filtered momentum derivative K (p - F[p]) multiplied by K, and
+  // biases the fit (errors in variables): a gain well below the observer's works better.
+  options.filter_gain = 10.0;
   app.add_flag("--update", update, "write the corrections into the profile (-p) in place");
   app.add_option("-o,--output", output, "write the updated profile to FILE instead (- for stdout)")->type_name("FILE");
   app.add_flag("--force", force, "write even when the correction is worse than the profile's current one");
   app.add_option("--report", report_path, "write the JSON report to FILE (- for stdout)")->type_name("FILE");
   app.add_flag("--gravity-only", options.gravity_only,
                "fit only masses and first moments (m, m c): for slow motion that excites little else");
+  app.add_flag("--torque-held", options.torque_held,
+               "each sample's motor torque was applied until the next sample (zero-order hold; mo-sim's drives)");
   app.add_flag("--no-friction", no_friction, "do not fit Coulomb + viscous friction (inputs already compensated)");
-  app.add_option("--filter-gain", filter_gain, "K of the low-pass K/(s+K), 1/s (default: the profile's observer k1)")
+  app.add_option("--filter-gain", filter_gain, "K of the low-pass K/(s+K), 1/s (default 10)")
       ->type_name("K");
   app.add_option("--coulomb-speed", options.coulomb_speed, "speed scale of the smoothed Coulomb term, rad/s (default 0.02)")
       ->type_name("W");
@@ -66,17 +70,7 @@ int main(int argc, char** argv) {
         if (nominal.bodies[static_cast<std::size_t>(k)].name == name) current.segment<10>(10 * k) += delta;
       }
     }
-    if (filter_gain > 0) {
-      options.filter_gain = filter_gain;
-    } else if (auto it = profile.document.find("observer"); it != profile.document.end()) {
-      try {
-        const auto gains = observer::observer_options_from_json(*it).joint_gains(nominal.nq);
-        options.filter_gain = gains.front().k1;
-        for (const auto& g : gains) options.filter_gain = std::min(options.filter_gain, g.k1);
-      } catch (const Error& e) {
-        throw Error(profile_name + ": " + e.what());
-      }
-    }
+    if (filter_gain > 0) options.filter_gain = filter_gain;
     options.fit_friction = !no_friction;
     std::string why;
     if (!options.IsValid(&why)) throw cli::UsageError(why);

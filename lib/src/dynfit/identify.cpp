@@ -94,6 +94,8 @@ bool IdentifyOptions::IsValid(std::string* why) const {
     return reject(why, "held-out period must be 0 (none) or >= 2");
   if (!(block > 0) || !std::isfinite(block)) return reject(why, "block length must be > 0");
   if (!(min_speed >= 0) || !std::isfinite(min_speed)) return reject(why, "minimum speed must be >= 0");
+  if (!(slow_settle_time_constants >= 0) || !std::isfinite(slow_settle_time_constants))
+    return reject(why, "settle time after slow motion must be >= 0");
   return true;
 }
 
@@ -231,11 +233,19 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
   advance(Fp_, Yp_prev_, Yp_);
   advance(Fb_, Yb_prev_, Yb_);
   advance(Ff_, friction_prev_, friction_);
-  advance(Fy_, y_prev_, y_);
+  if (options_.torque_held) {
+    // The drive applied the torque reported at the start of the interval until its end.
+    Fy_ = c.a1 * Fy_ + (c.b10 + c.b11) * y_prev_;
+    y_prev_ = y_;
+  } else {
+    advance(Fy_, y_prev_, y_);
+  }
   advance(Fpk_, pk_prev_, pk_);
   const double settle = options_.settle_time_constants / options_.filter_gain;
   for (int j = 0; j < n_; ++j) {
-    if (std::abs(dq[j]) < options_.min_speed) slow_until_[static_cast<std::size_t>(j)] = t + settle;
+    if (std::abs(dq[j]) < options_.min_speed) {
+      slow_until_[static_cast<std::size_t>(j)] = t + options_.slow_settle_time_constants / options_.filter_gain;
+    }
   }
   if (t - t_start_ < settle) return;
 

@@ -63,7 +63,7 @@ bool parse_update(const std::string& name, LugreUpdate* update) {
   return true;
 }
 
-bool IsValid(Kind kind, const Parameters<double>& p, std::string* why) {
+bool is_valid(Kind kind, const Parameters<double>& p, std::string* why) {
   double x[Parameters<double>::kSize];
   p.to_array(x);
   for (int i : used_parameters(kind)) {
@@ -84,7 +84,7 @@ bool IsValid(Kind kind, const Parameters<double>& p, std::string* why) {
   return true;
 }
 
-bool Options::IsValid(std::string* why) const {
+bool Options::is_valid(std::string* why) const {
   if (!std::isfinite(velocity_deadband) || velocity_deadband < 0)
     return fail(why, "velocity_deadband = " + number(velocity_deadband) + " is not a finite value >= 0");
   if (!std::isfinite(velocity_cutoff_hz) || velocity_cutoff_hz < 0)
@@ -92,11 +92,11 @@ bool Options::IsValid(std::string* why) const {
   return true;
 }
 
-bool FrictionModel::IsValid(std::string* why) const {
-  if (!options.IsValid(why)) return false;
+bool FrictionModel::is_valid(std::string* why) const {
+  if (!options.is_valid(why)) return false;
   for (std::size_t j = 0; j < joints.size(); ++j) {
     std::string reason;
-    if (!friction::IsValid(kind, joints[j], &reason))
+    if (!friction::is_valid(kind, joints[j], &reason))
       return fail(why, "joint " + std::to_string(j + 1) + ": " + reason);
   }
   return true;
@@ -151,7 +151,7 @@ FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std:
     model.joints.push_back(Parameters<double>::from_array(x));
   }
   std::string why;
-  if (!model.IsValid(&why)) error(why);
+  if (!model.is_valid(&why)) error(why);
   return model;
 }
 

@@ -45,6 +45,10 @@ struct IdentifyOptions {
   // Fit Coulomb + viscous friction per joint jointly with the inertial parameters. Off: the
   // inputs are assumed to be friction-compensated already.
   bool fit_friction = true;
+  // The motor torque of a sample is held until the next sample (a drive that applies each
+  // cycle's command for the whole cycle, as mo-sim's controller does); otherwise it is taken
+  // as linear between samples, like every other signal.
+  bool torque_held = false;
   // Speed scale of the smoothed Coulomb term tanh(dq / coulomb_speed), rad/s (> 0).
   double coulomb_speed = 0.02;
   // Relative singular value below which a combination counts as not identifiable (0 < tol < 1).
@@ -59,9 +63,10 @@ struct IdentifyOptions {
   double holdout_segment = 10.0;
   int holdout_every = 5;
   // A joint's equation does not count while the joint is slower than min_speed (rad/s, >= 0;
-  // 0 counts everything) nor for settle_time_constants / K after: there friction sticks and
-  // shows Stribeck and presliding effects the Coulomb + viscous model does not have.
+  // 0 counts everything) nor for slow_settle_time_constants / K after (>= 0): there friction
+  // sticks and shows Stribeck and presliding effects the Coulomb + viscous model does not have.
   double min_speed = 0.0;
+  double slow_settle_time_constants = 3.0;
   // Shortest block of the sandwich covariance, s (> 0).
   double block = 1.0;
 

@@ -39,7 +39,7 @@ struct Options {
   double velocity_cutoff_hz = 0.0;
 
   // False (with the reason in `why`, when non-null) for negative or non-finite values.
-  bool IsValid(std::string* why) const;
+  bool is_valid(std::string* why) const;
 };
 
 // A friction model for every joint of a chain, in chain order (joint 1 nearest the root).
@@ -48,15 +48,15 @@ struct FrictionModel {
   Options options;
   std::vector<Parameters<double>> joints;
 
-  // Checks options and every joint's parameters (see IsValid(Kind, ...)); the reason names
+  // Checks options and every joint's parameters (see is_valid(Kind, ...)); the reason names
   // the joint (1-based).
-  bool IsValid(std::string* why) const;
+  bool is_valid(std::string* why) const;
 };
 
 // Reads a profile's "friction" section. Throws momentum::Error ("friction: joint 2: missing
 // 'tau_s'", ...; the caller adds the file name) when the section is not an object, the model
 // name is unknown, "joints" is missing or not an array of objects, a parameter the model needs
-// is missing or not a finite number, or the result fails FrictionModel::IsValid. Keys it does
+// is missing or not a finite number, or the result fails FrictionModel::is_valid. Keys it does
 // not know (in the section or a joint) are listed in `warnings` (when non-null), not errors.
 FrictionModel friction_from_json(const nlohmann::json& section,
                                  std::vector<std::string>* warnings = nullptr);

@@ -96,7 +96,7 @@ T coulomb_viscous_torque(const Parameters<T>& p, const T& w) {
 // Advances the LuGre bristle state z (rad) over a step of dt seconds (>= 0) during which the
 // velocity is w, and returns the friction torque at the end of the step, Nm:
 // sigma0 z + sigma1 dz/dt + sigma2 w, with dz/dt = w - s0 |w| z / g(w) evaluated at the new z.
-// Requires sigma0 > 0 and g(w) > 0 (see IsValid()); no other failure case.
+// Requires sigma0 > 0 and g(w) > 0 (see is_valid()); no other failure case.
 template <class T>
 T lugre_step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, T& z) {
   using std::abs;
@@ -130,7 +130,7 @@ T lugre_step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, 
 // Checks a parameter set for a model: finite numbers; sigma0 > 0 and sigma1 >= 0 for LuGre;
 // tau_c > 0, tau_s > 0, w_s > 0 for LuGre and Stribeck; tau_c >= 0 for Coulomb-viscous;
 // sigma2 >= 0 always. Returns false with the reason in `why` (when non-null).
-bool IsValid(Kind kind, const Parameters<double>& p, std::string* why);
+bool is_valid(Kind kind, const Parameters<double>& p, std::string* why);
 
 // "coulomb-viscous", "stribeck", "lugre".
 const char* kind_name(Kind kind);

@@ -1,0 +1,115 @@
+#!/usr/bin/env python3
+"""Checks a mo-dynfit report against the TRUE arm the log was simulated from.
+
+usage: check_recovery.py TRUE_URDF FIT_REPORT TRUTH_REPORT [--sigmas 3]
+
+The true standard parameters are computed here, independently of the library, from the URDF's
+<inertial> elements (links on fixed joints merged into their moving parent; every origin in
+these test URDFs has rpy 0, which is asserted). Each identified base combination must lie
+within SIGMAS reported standard errors of the truth plus 1% of its size (the errors cover
+noise, not the systematic error left by the Coulomb + viscous friction model and the sampling). TRUTH_REPORT is mo-dynfit's report with the
+TRUE profile as its nominal model (nothing to correct): its "before" RMS is the noise floor of the
+filtered equation with the true model and the same friction model; the corrected model's
+held-out RMS must fall to within 15% of it, and the nominal model's must be well above it.
+"""
+import json
+import sys
+import xml.etree.ElementTree as ET
+
+
+def vec(text):
+    return [float(x) for x in (text or "0 0 0").split()]
+
+
+def standard_parameters(urdf_path):
+    root = ET.parse(urdf_path).getroot()
+    links = {l.get("name"): l for l in root.findall("link")}
+    joints = root.findall("joint")
+    parent_of = {j.find("child").get("link"): j for j in joints}
+    bodies = {}   # moving body name -> [m, mx, my, mz, ixx, ixy, ixz, iyy, iyz, izz]
+    order = []
+    for name, link in links.items():
+        # walk up through fixed joints to the moving body, summing offsets (rpy 0)
+        offset = [0.0, 0.0, 0.0]
+        body = name
+        while body in parent_of and parent_of[body].get("type") == "fixed":
+            j = parent_of[body]
+            origin = j.find("origin")
+            if origin is not None:
+                assert vec(origin.get("rpy")) == [0, 0, 0]
+                offset = [a + b for a, b in zip(offset, vec(origin.get("xyz")))]
+            body = j.find("parent").get("link")
+        if body not in parent_of:
+            continue  # the fixed base
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue
+        origin = inertial.find("origin")
+        c = [0.0, 0.0, 0.0]
+        if origin is not None:
+            assert vec(origin.get("rpy")) == [0, 0, 0]
+            c = vec(origin.get("xyz"))
+        c = [a + b for a, b in zip(c, offset)]
+        m = float(inertial.find("mass").get("value"))
+        i = inertial.find("inertia")
+        I = {k: float(i.get(k)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        cc = sum(x * x for x in c)
+        origin_inertia = [
+            I["ixx"] + m * (cc - c[0] * c[0]), I["ixy"] - m * c[0] * c[1], I["ixz"] - m * c[0] * c[2],
+            I["iyy"] + m * (cc - c[1] * c[1]), I["iyz"] - m * c[1] * c[2], I["izz"] + m * (cc - c[2] * c[2])]
+        theta = [m, m * c[0], m * c[1], m * c[2]] + origin_inertia
+        if body not in bodies:
+            bodies[body] = [0.0] * 10
+            order.append(body)
+        bodies[body] = [a + b for a, b in zip(bodies[body], theta)]
+    return bodies
+
+
+NAMES = ["m", "mx", "my", "mz", "ixx", "ixy", "ixz", "iyy", "iyz", "izz"]
+
+
+def main():
+    args = sys.argv[1:]
+    sigmas = 3.0
+    if "--sigmas" in args:
+        k = args.index("--sigmas")
+        sigmas = float(args[k + 1])
+        del args[k:k + 2]
+    urdf, fit_path, truth_path = args
+    theta = standard_parameters(urdf)
+    fit = json.load(open(fit_path))
+    truth_fit = json.load(open(truth_path))
+    ok = True
+    worst = 0.0
+    for k, base in enumerate(fit["base"]):
+        true_value = 0.0
+        for key, w in base["direction"].items():
+            body, name = key.rsplit(".", 1)
+            true_value += w * theta[body][NAMES.index(name)]
+        se = base["standard_error"]
+        z = (base["value"] - true_value) / se
+        worst = max(worst, abs(z))
+        # The reported standard errors cover the noise, not the remaining model error (friction
+        # model, sampling): allow 1% of the parameter's size on top.
+        allowed = sigmas * se + 0.01 * max(abs(true_value), abs(base["nominal"]))
+        inside = abs(base["value"] - true_value) <= allowed
+        flag = "" if inside else "   <-- outside"
+        print(f"b{k + 1:<2} nominal {base['nominal']:11.5g}  fitted {base['value']:11.5g} +- {se:9.3g}"
+              f"  true {true_value:11.5g}  z {z:6.2f}{flag}")
+        if not inside:
+            ok = False
+    print(f"{len(fit['base'])} base parameters, largest |z| {worst:.2f} (allowed {sigmas})")
+    floor = truth_fit["rms_before"]
+    for j, (before, after, noise) in enumerate(zip(fit["rms_before"], fit["rms_after"], floor)):
+        good = after <= 1.15 * noise and before > 3 * noise
+        print(f"joint {j + 1}: held-out RMS nominal {before:.4f} -> corrected {after:.4f} Nm; "
+              f"true model {noise:.4f} Nm{'' if good else '   <-- not at the noise floor'}")
+        ok = ok and good
+    if not fit["held_out"]:
+        print("no held-out data")
+        ok = False
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
