@@ -3,24 +3,20 @@
 // decoded signal).
 #include <signal.h>
 
-#include <cerrno>
 #include <cinttypes>
-#include <cmath>
 #include <csignal>
 #include <cstdio>
-#include <cstring>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include "momentum/can/candump.hpp"
 #include "momentum/can/codec.hpp"
 #include "momentum/can/cycle.hpp"
 #include "momentum/can/dbc.hpp"
+#include "momentum/can/signal_rows.hpp"
 #include "momentum/can/socketcan.hpp"
 #include "momentum/cli/tool.hpp"
 #include "momentum/stream/error.hpp"
@@ -45,100 +41,10 @@ void install(int signo, void (*handler)(int)) {
   sigaction(signo, &action, nullptr);
 }
 
-// "0x080", "080", "80" -> 0x080; 8 hex digits (or a value above 0x7FF) -> a 29-bit id.
-std::uint32_t parse_can_id(std::string text) {
-  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) text = text.substr(2);
-  if (text.empty() || text.size() > 8 || text.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
-    throw cli::UsageError("--sync: '" + text + "' is not a hexadecimal can id");
-  const std::uint32_t id = static_cast<std::uint32_t>(std::stoul(text, nullptr, 16));
-  if (id > can::kExtendedMask) throw cli::UsageError("--sync: " + text + " is above 1FFFFFFF");
-  return (text.size() == 8 || id > can::kStandardMask) ? (id | can::kExtendedFlag) : id;
-}
-
 // Totals over every input, for --stats.
 struct Totals {
   std::uint64_t frames = 0, bad_lines = 0, lost_frames = 0, bad_records = 0;
-  std::uint64_t long_decoded = 0, long_unknown = 0, long_short = 0;
 };
-
-// --long output: CSV text written with write(2) through one buffer.
-class LongWriter {
- public:
-  explicit LongWriter(const std::string& path) {
-    if (path.empty() || path == "-") {
-      fd_ = STDOUT_FILENO;
-    } else {
-      fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-      if (fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
-      owns_ = true;
-    }
-    buffer_.reserve(kSize + 512);
-  }
-  ~LongWriter() {
-    try {
-      flush();
-    } catch (...) {
-    }
-    if (owns_) ::close(fd_);
-  }
-  void append(std::string_view text) {
-    buffer_.append(text);
-    if (buffer_.size() >= kSize) flush();
-  }
-  void flush() {
-    std::size_t done = 0;
-    while (done < buffer_.size()) {
-      const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
-      if (n < 0) {
-        if (errno == EINTR) continue;
-        if (errno == EPIPE) throw stream::BrokenPipe();
-        throw Error(std::string("write error: ") + std::strerror(errno));
-      }
-      done += static_cast<std::size_t>(n);
-    }
-    buffer_.clear();
-  }
-
- private:
-  static constexpr std::size_t kSize = 1 << 16;
-  int fd_ = -1;
-  bool owns_ = false;
-  std::string buffer_;
-};
-
-// "1700000000.001000": 6 fraction digits, 9 when the time is not a whole microsecond.
-std::size_t format_time(const can::Frame& f, char* out) {
-  if (!f.has_time) {
-    std::memcpy(out, "nan", 3);
-    return 3;
-  }
-  std::int64_t ns = f.time_ns;
-  std::size_t n = 0;
-  if (ns < 0) {
-    out[n++] = '-';
-    ns = -ns;
-  }
-  const bool micro = ns % 1000 == 0;
-  std::int64_t sec = ns / 1000000000, frac = ns % 1000000000;
-  char digits[24];
-  int d = 0;
-  do {
-    digits[d++] = static_cast<char>('0' + sec % 10);
-    sec /= 10;
-  } while (sec > 0);
-  while (d > 0) out[n++] = digits[--d];
-  out[n++] = '.';
-  int width = 9;
-  if (micro) {
-    frac /= 1000;
-    width = 6;
-  }
-  for (int i = width - 1; i >= 0; --i) {
-    out[n + static_cast<std::size_t>(i)] = static_cast<char>('0' + frac % 10);
-    frac /= 10;
-  }
-  return n + static_cast<std::size_t>(width);
-}
 
 }  // namespace
 
@@ -197,7 +103,7 @@ int main(int argc, char** argv) {
 
     std::unique_ptr<can::CycleAssembler> cycles;
     std::unique_ptr<stream::Writer> writer;
-    std::unique_ptr<LongWriter> long_writer;
+    std::unique_ptr<can::SignalRowWriter> long_writer;
 
     auto print_stats = [&] {
       std::uint64_t bad_lines = totals.bad_lines, lost = totals.lost_frames, frames = totals.frames;
@@ -230,11 +136,12 @@ int main(int argc, char** argv) {
                       s.complete_cycles, s.incomplete_cycles, s.missing_values, s.held_values, s.repeated_values,
                       s.empty_periods);
         out += line;
-      } else {
+      } else if (long_writer) {
+        const can::SignalRowCounts& c = long_writer->counts();
         std::snprintf(line, sizeof line,
                       "mo-can2csv: stats: frames read %" PRIu64 ", decoded %" PRIu64 ", unknown ids %" PRIu64
                       ", short %" PRIu64 ", bad lines %" PRIu64 ", lost frames %" PRIu64 "\n",
-                      frames, totals.long_decoded, totals.long_unknown, totals.long_short, bad_lines, lost);
+                      frames, c.decoded, c.unknown_ids, c.short_frames, bad_lines, lost);
         out += line;
       }
       std::fwrite(out.data(), 1, out.size(), stderr);
@@ -298,46 +205,12 @@ int main(int argc, char** argv) {
 
     can::Frame frame;
     if (long_format) {
-      long_writer = std::make_unique<LongWriter>(output);
-      LongWriter* w = long_writer.get();
+      long_writer = std::make_unique<can::SignalRowWriter>(db, output);
+      can::SignalRowWriter* w = long_writer.get();
       flush_output = [w] { w->flush(); };
       if (text) text->before_read(flush_output);
-      w->append("t,can_id,message,signal,raw,value\n");
-      std::vector<can::SignalValue> values;
-      std::size_t most = 0;
-      for (const auto& m : db.messages()) most = std::max(most, m.signals.size());
-      values.resize(most);
-      std::string row;
       while (next_frame(frame)) {
-        if (frame.error || frame.rtr) continue;
-        const can::Message* m = db.find(frame.key());
-        if (m == nullptr) {
-          ++totals.long_unknown;
-          continue;
-        }
-        ++totals.long_decoded;
-        bool truncated = false;
-        const std::size_t n = can::decode(*m, frame, values.data(), &truncated);
-        if (truncated) ++totals.long_short;
-        char t[48], id[8], raw[48], value[48];
-        const std::size_t t_len = format_time(frame, t);
-        const std::size_t id_len = can::format_id(frame, id);
-        for (std::size_t k = 0; k < n; ++k) {
-          const can::Signal& s = m->signals[values[k].index];
-          row.assign(t, t_len);
-          row += ',';
-          row.append(id, id_len);
-          row += ',';
-          row += m->name;
-          row += ',';
-          row += s.name;
-          row += ',';
-          row.append(raw, can::format_raw(s, values[k].bits, raw));
-          row += ',';
-          row.append(value, can::format_physical(s, values[k].bits, value));
-          row += '\n';
-          w->append(row);
-        }
+        w->write(frame);
         if (live) w->flush();
       }
       w->flush();
@@ -357,7 +230,11 @@ int main(int argc, char** argv) {
         options.boundary = can::CycleBoundary::message;
         options.message_key = m->key;
       } else if (!sync_text.empty()) {
-        options.sync_key = parse_can_id(sync_text);
+        try {
+          options.sync_key = can::parse_can_id(sync_text);
+        } catch (const Error& e) {
+          throw cli::UsageError(std::string("--sync: ") + e.what());
+        }
       }
       std::string why;
       if (!options.IsValid(&why)) throw cli::UsageError(why);

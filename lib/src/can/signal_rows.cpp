@@ -1,0 +1,139 @@
+#include "momentum/can/signal_rows.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/stream/writer.hpp"
+
+namespace momentum::can {
+
+namespace {
+constexpr std::size_t kBufferSize = 1 << 16;
+}
+
+SignalRowWriter::SignalRowWriter(const Database& database, const std::string& path) : database_(database) {
+  if (path.empty() || path == "-") {
+    fd_ = STDOUT_FILENO;
+  } else {
+    fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
+    owns_fd_ = true;
+  }
+  buffer_.reserve(kBufferSize + 512);
+  std::size_t most = 0;
+  for (const auto& m : database_.messages()) most = std::max(most, m.signals.size());
+  values_.resize(most);
+  append("t,can_id,message,signal,raw,value\n");
+}
+
+SignalRowWriter::~SignalRowWriter() {
+  try {
+    flush();
+  } catch (...) {
+  }
+  if (owns_fd_) ::close(fd_);
+}
+
+void SignalRowWriter::append(std::string_view text) {
+  buffer_.append(text);
+  if (buffer_.size() >= kBufferSize) flush();
+}
+
+void SignalRowWriter::flush() {
+  std::size_t done = 0;
+  while (done < buffer_.size()) {
+    const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      buffer_.clear();
+      if (errno == EPIPE) throw stream::BrokenPipe();
+      throw Error(std::string("write error: ") + std::strerror(errno));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  buffer_.clear();
+}
+
+void SignalRowWriter::write(const Frame& frame) {
+  if (frame.error || frame.rtr) return;
+  const Message* m = database_.find(frame.key());
+  if (m == nullptr) {
+    ++counts_.unknown_ids;
+    return;
+  }
+  ++counts_.decoded;
+  bool truncated = false;
+  const std::size_t n = decode(*m, frame, values_.data(), &truncated);
+  if (truncated) ++counts_.short_frames;
+  char t[48], id[8], raw[48], value[48];
+  const std::size_t t_len = format_frame_time(frame, t);
+  const std::size_t id_len = format_id(frame, id);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Signal& s = m->signals[values_[k].index];
+    row_.assign(t, t_len);
+    row_ += ',';
+    row_.append(id, id_len);
+    row_ += ',';
+    row_ += m->name;
+    row_ += ',';
+    row_ += s.name;
+    row_ += ',';
+    row_.append(raw, format_raw(s, values_[k].bits, raw));
+    row_ += ',';
+    row_.append(value, format_physical(s, values_[k].bits, value));
+    row_ += '\n';
+    append(row_);
+  }
+}
+
+std::size_t format_frame_time(const Frame& frame, char* out) {
+  if (!frame.has_time) {
+    std::memcpy(out, "nan", 3);
+    return 3;
+  }
+  std::int64_t ns = frame.time_ns;
+  std::size_t n = 0;
+  if (ns < 0) {
+    out[n++] = '-';
+    ns = -ns;
+  }
+  const bool whole_micro = ns % 1000 == 0;
+  std::int64_t seconds = ns / 1000000000, fraction = ns % 1000000000;
+  char digits[24];
+  int d = 0;
+  do {
+    digits[d++] = static_cast<char>('0' + seconds % 10);
+    seconds /= 10;
+  } while (seconds > 0);
+  while (d > 0) out[n++] = digits[--d];
+  out[n++] = '.';
+  int width = 9;
+  if (whole_micro) {
+    fraction /= 1000;
+    width = 6;
+  }
+  for (int i = width - 1; i >= 0; --i) {
+    out[n + static_cast<std::size_t>(i)] = static_cast<char>('0' + fraction % 10);
+    fraction /= 10;
+  }
+  return n + static_cast<std::size_t>(width);
+}
+
+std::uint32_t parse_can_id(std::string_view text) {
+  const std::string shown(text);
+  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) text.remove_prefix(2);
+  if (text.empty() || text.size() > 8 || text.find_first_not_of("0123456789abcdefABCDEF") != std::string_view::npos)
+    throw Error("'" + shown + "' is not a hexadecimal can id");
+  std::uint32_t id = 0;
+  std::from_chars(text.data(), text.data() + text.size(), id, 16);
+  if (id > kExtendedMask) throw Error("'" + shown + "' is above 1FFFFFFF");
+  return (text.size() == 8 || id > kStandardMask) ? (id | kExtendedFlag) : id;
+}
+
+}  // namespace momentum::can
