@@ -44,7 +44,7 @@ void parse_assignments(const std::string& text, const std::string& option,
     const auto eq = item.find('=');
     const int index = eq == std::string::npos ? -1 : fit::parameter_index(item.substr(0, eq));
     if (index < 0)
-      throw cli::UsageError(option + ": '" + item + "' is not NAME=VALUE with NAME one of sigma0, sigma1, sigma2, tau_c, tau_s, w_s");
+      throw cli::UsageError(option + ": '" + item + "' is not NAME=VALUE with NAME one of sigma0, sigma1, sigma2, tau_c, tau_s, w_s, delta_c, delta_s");
     apply(index, item.substr(eq + 1));
   }
 }
@@ -91,6 +91,12 @@ int main(int argc, char** argv) {
   app.add_option("--evaluations", evaluations, "budget of the NLopt methods (default population x generations x restarts)")->type_name("N");
   app.add_flag("--no-polish", no_polish, "skip the Ceres least-squares polish");
   app.add_flag("--no-static", no_static, "do not fit the static Stribeck model for comparison");
+  bool asymmetric = false;
+  app.add_flag("--asymmetric", asymmetric,
+               "also fit direction-dependent levels (delta_c, delta_s), and the symmetric model for comparison");
+  bool asymmetric = false;
+  app.add_flag("--asymmetric", asymmetric,
+               "also fit direction-dependent levels (delta_c, delta_s), and the symmetric model for comparison");
   app.add_option("--bounds", bounds_text, "search box, e.g. sigma0=5e4:2e5,w_s=0.001:0.5")->type_name("LIST");
   app.add_option("--fix", fix_text, "hold parameters at values, e.g. sigma0=1e5")->type_name("LIST");
   app.add_option("--threads", threads, "joints fitted at once (default: one per core)")->type_name("N");
@@ -121,6 +127,7 @@ int main(int argc, char** argv) {
     ga.mutation = mutation;
     ga.elite = elite;
     ga.seed = tool.seed();
+    options.asymmetric = asymmetric;
     options.global.max_evaluations = evaluations;
     options.polish.enabled = !no_polish;
     options.compare_static = !no_static;

@@ -19,7 +19,7 @@ namespace {
 const momentum::observer::Gains kPaperObserver{50.0, 0.2, 0.0};  // the paper arm's profile
 
 double value(const mf::Parameters<double>& p, int i) {
-  double a[6];
+  double a[mf::Parameters<double>::kSize];
   p.to_array(a);
   return a[i];
 }

@@ -48,7 +48,7 @@ std::string describe(const fit::ModelFit& m) {
 }
 
 double value(const mf::Parameters<double>& p, int i) {
-  double a[6];
+  double a[mf::Parameters<double>::kSize];
   p.to_array(a);
   return a[i];
 }

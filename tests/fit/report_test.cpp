@@ -18,7 +18,7 @@ fit::JointFit joint_fit(int joint, mf::Kind kind, double tau_c) {
   f.joint = joint;
   f.model.kind = kind;
   f.model.parameters = {9e4, 200, 1.5, tau_c, tau_c + 1, 0.05};
-  double x[6];
+  double x[fit::kParameterCount];
   f.model.parameters.to_array(x);
   const auto used = fit::model_parameters(kind);
   for (int i = 0; i < 6; ++i) {

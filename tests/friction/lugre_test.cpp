@@ -142,9 +142,10 @@ TEST(Lugre, SemiImplicitIsPaperEquation13) {
 }
 
 // Derivatives through a whole LuGre recursion (as the fitter takes them with ceres::Jet) match
-// central finite differences of the double version, for each of the six parameters.
+// central finite differences of the double version, for each of the eight parameters (an
+// asymmetric set, so that delta_c and delta_s matter).
 TEST(Lugre, JetDerivativesMatchFiniteDifferences) {
-  using Jet = ceres::Jet<double, 6>;
+  using Jet = ceres::Jet<double, 8>;
   struct Case {
     mf::LugreUpdate update;
     double dt;
@@ -156,7 +157,7 @@ TEST(Lugre, JetDerivativesMatchFiniteDifferences) {
   semi_opts.update = mf::LugreUpdate::semi_implicit;
   filtered.update = mf::LugreUpdate::exact;
   // Velocity ranges where every parameter matters: slow reversals (bristles, Stribeck).
-  const Params base = {2000.0, 8.0, 0.8, 2.0, 3.0, 0.05};
+  const Params base = {2000.0, 8.0, 0.8, 2.0, 3.0, 0.05, 0.3, -0.4};  // asymmetric
   for (const Case& c : {Case{mf::LugreUpdate::exact, 0.001, exact_opts},
                         Case{mf::LugreUpdate::semi_implicit, 0.008, semi_opts},
                         Case{mf::LugreUpdate::exact, 0.004, filtered}}) {
@@ -173,21 +174,21 @@ TEST(Lugre, JetDerivativesMatchFiniteDifferences) {
       }
       return cost;
     };
-    double x[6];
+    double x[8];
     base.to_array(x);
-    std::vector<Jet> xj(6);
-    for (int i = 0; i < 6; ++i) xj[i] = Jet(x[i], i);
+    std::vector<Jet> xj(8);
+    for (int i = 0; i < 8; ++i) xj[i] = Jet(x[i], i);
     const Jet cost = run(xj);
-    for (int i = 0; i < 6; ++i) {
+    for (int i = 0; i < 8; ++i) {
       const double h = 1e-6 * std::abs(x[i]);
-      std::vector<double> plus(x, x + 6), minus(x, x + 6);
+      std::vector<double> plus(x, x + 8), minus(x, x + 8);
       plus[i] += h;
       minus[i] -= h;
       const double fd = (run(plus) - run(minus)) / (2 * h);
       EXPECT_NEAR(cost.v[i], fd, 1e-6 * std::abs(fd) + 1e-7 * std::abs(cost.a))
           << mf::kParameterNames[i] << " update " << mf::update_name(c.update);
     }
-    std::vector<double> xd(x, x + 6);
+    std::vector<double> xd(x, x + 8);
     EXPECT_NEAR(cost.a, run(xd), 1e-12 * std::abs(cost.a));
   }
 }

@@ -26,8 +26,8 @@ using Params = friction::Parameters<double>;
 
 ParameterBounds paper_bounds() {
   ParameterBounds b;
-  b.lower = {6e4, 0.0, 0.0, 1e-5, 1e-5, 1e-7};
-  b.upper = {1e5, 500.0, 10.0, 10.0, 10.0, 0.1};
+  b.lower = {6e4, 0.0, 0.0, 1e-5, 1e-5, 1e-7, -3.0, -3.0};
+  b.upper = {1e5, 500.0, 10.0, 10.0, 10.0, 0.1, 3.0, 3.0};
   return b;
 }
 
@@ -37,11 +37,11 @@ int parameter_index(const std::string& name) {
   return -1;
 }
 
-std::vector<int> model_parameters(Kind kind) {
+std::vector<int> model_parameters(Kind kind, bool asymmetric) {
   switch (kind) {
-    case Kind::lugre: return {0, 1, 2, 3, 4, 5};
-    case Kind::stribeck: return {2, 3, 4, 5};
-    case Kind::coulomb_viscous: return {2, 3};
+    case Kind::lugre: return asymmetric ? std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7} : std::vector<int>{0, 1, 2, 3, 4, 5};
+    case Kind::stribeck: return asymmetric ? std::vector<int>{2, 3, 4, 5, 6, 7} : std::vector<int>{2, 3, 4, 5};
+    case Kind::coulomb_viscous: return asymmetric ? std::vector<int>{2, 3, 6} : std::vector<int>{2, 3};
   }
   return {};
 }
@@ -70,6 +70,7 @@ namespace {
 
 // Smallest value a parameter may take for a model: > 0 (strictly) or >= 0.
 bool must_be_positive(Kind kind, int i) {
+  if (i >= 6) return false;  // asymmetries have either sign
   if (i == 0) return kind == Kind::lugre;
   if (i == 3) return kind != Kind::coulomb_viscous;
   return i == 4 || i == 5;  // tau_s, w_s (used only by LuGre and Stribeck)
@@ -77,9 +78,18 @@ bool must_be_positive(Kind kind, int i) {
 
 std::vector<int> free_parameters(const FitOptions& o, Kind kind) {
   std::vector<int> free;
-  for (int i : model_parameters(kind))
+  for (int i : model_parameters(kind, o.asymmetric))
     if (!o.fixed[static_cast<std::size_t>(i)]) free.push_back(i);
   return free;
+}
+
+// The levels of both directions are positive (non-negative for Coulomb-viscous): outside this
+// the friction model is meaningless (the LuGre rate would change sign).
+template <class T>
+bool feasible(Kind kind, const friction::Parameters<T>& p) {
+  using std::abs;
+  if (kind == Kind::coulomb_viscous) return !(abs(p.delta_c) > p.tau_c);
+  return abs(p.delta_c) < p.tau_c && abs(p.delta_s) < p.tau_s;
 }
 
 }  // namespace
@@ -96,19 +106,20 @@ bool FitOptions::IsValid(std::string* why) const {
   std::vector<Kind> kinds{kind};
   if (kind == Kind::lugre && compare_static) kinds.push_back(Kind::stribeck);
   for (Kind k : kinds) {
-    for (int i : model_parameters(k)) {
+    for (int i : model_parameters(k, asymmetric)) {
       const auto u = static_cast<std::size_t>(i);
       const std::string name = friction::kParameterNames[i];
+      const bool signed_parameter = i >= 6;
       if (fixed[u]) {
         const double v = *fixed[u];
-        if (!std::isfinite(v) || v < 0 || (must_be_positive(k, i) && v == 0))
+        if (!std::isfinite(v) || (v < 0 && !signed_parameter) || (must_be_positive(k, i) && v == 0))
           return fail(name + " = " + std::to_string(v) + " is not a valid fixed value");
         continue;
       }
       const double lo = bounds.lower[u], hi = bounds.upper[u];
       if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi))
         return fail(name + ": bounds must be finite with lower < upper");
-      if (lo < 0 || (must_be_positive(k, i) && lo <= 0))
+      if ((lo < 0 && !signed_parameter) || (must_be_positive(k, i) && lo <= 0))
         return fail(name + ": lower bound must be " + (must_be_positive(k, i) ? "> 0" : ">= 0"));
     }
     if (free_parameters(*this, k).empty()) return fail("every parameter is fixed: nothing to fit");
@@ -206,8 +217,10 @@ struct Problem {
     }
   }
 
-  // 1/2 sum of squared errors over the counted samples, for parameters in physical units.
+  // 1/2 sum of squared errors over the counted samples, for parameters in physical units;
+  // infinite where a direction's level is not positive.
   double cost(const Params& p) const {
+    if (!feasible(kind, p)) return std::numeric_limits<double>::infinity();
     double sum = 0;
     const auto& d = *data;
     simulate(p, [&](std::size_t k, double y, double) {
@@ -227,6 +240,7 @@ struct Residuals {
   template <class T>
   bool operator()(T const* const* x, T* residuals) const {
     const auto p = problem->assemble<T>(x[0], scale.data());
+    if (!feasible(problem->kind, p)) return false;  // Ceres rejects the step
     const auto& d = *problem->data;
     std::size_t m = 0;
     problem->simulate(p, [&](std::size_t k, const T& y, const T&) {
@@ -345,6 +359,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
   const std::size_t nfree = problem.free.size();
   ModelFit fit;
   fit.kind = kind;
+  fit.asymmetric = options.asymmetric;
   fit.free = problem.free;
 
   // Global search in physical units over the free parameters' box.
@@ -668,7 +683,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     double all[kParameterCount];
     fit.parameters.to_array(all);
     e.value = all[i];
-    const auto used = model_parameters(kind);
+    const auto used = model_parameters(kind, options.asymmetric);
     e.used = std::find(used.begin(), used.end(), i) != used.end();
   }
   for (std::size_t j = 0; j < nfree; ++j) {
@@ -686,7 +701,9 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     const double near = 1e-6 * (hi - lo);
     if (e.value <= lo + near) e.at_bound = -1;
     if (e.value >= hi - near) e.at_bound = +1;
-    const double reference = std::min(std::abs(e.value), hi - lo);
+    // An asymmetry is often truly 0: judge it against its level (tau_c, tau_s), not itself.
+    const double reference = i >= 6 ? std::min(i == 6 ? fit.parameters.tau_c : fit.parameters.tau_s, hi - lo)
+                                    : std::min(std::abs(e.value), hi - lo);
     std::string note;
     if (!undetermined[j].empty()) {
       e.identifiable = false;
@@ -700,7 +717,8 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       e.identifiable = false;
       note = "not identifiable: uncertainty " + format("%.3g", e.uncertainty) +
              (reference > 0 ? format(" = %.3g%% of ", 100.0 * e.uncertainty / reference) +
-                                  (reference == std::abs(e.value) ? "the value" : "the bound interval")
+                                  (i >= 6 && reference < hi - lo ? (i == 6 ? "tau_c" : "tau_s")
+                                   : reference == std::abs(e.value) ? "the value" : "the bound interval")
                             : std::string(" at a value of 0"));
       const double sub = std::isfinite(e.discretization_shift) ? std::abs(e.discretization_shift) : 0.0;
       const double vel = std::isfinite(e.velocity_noise_shift) ? std::abs(e.velocity_noise_shift) : 0.0;
@@ -770,6 +788,13 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
         fit_model(data, gains, Kind::stribeck, options, derive_seed(seed, 1), data.joint, progress);
     result.static_seconds = result.static_model->seconds;
   }
+  if (options.asymmetric) {
+    FitOptions symmetric = options;
+    symmetric.asymmetric = false;
+    result.symmetric_model =
+        fit_model(data, gains, options.kind, symmetric, derive_seed(seed, 2), data.joint, progress);
+    result.symmetric_seconds = result.symmetric_model->seconds;
+  }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
@@ -790,14 +815,19 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
   // One task per model and joint (the chosen models first: they take longest), so that three
   // joints with their static comparisons spread evenly over two cores. Each task's seed
   // depends only on the joint and the model, as in fit_joint.
+  enum class Which { model, static_model, symmetric };
   struct Task {
     std::size_t joint;
-    bool static_model;
+    Which which;
   };
   std::vector<Task> tasks;
-  for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, false});
+  for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::model});
+  if (options.asymmetric)
+    for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::symmetric});
   if (options.kind == Kind::lugre && options.compare_static)
-    for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, true});
+    for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::static_model});
+  FitOptions symmetric = options;
+  symmetric.asymmetric = false;
   std::vector<JointFit> results(data.size());
   std::vector<std::exception_ptr> errors(tasks.size());
   std::atomic<std::size_t> next{0};
@@ -808,13 +838,19 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
       const std::uint64_t seed = derive_seed(options.global.genetic.seed, static_cast<std::uint64_t>(d.joint));
       try {
         const auto start = std::chrono::steady_clock::now();
-        ModelFit fit = fit_model(d, gains[task.joint], task.static_model ? Kind::stribeck : options.kind, options,
-                                 derive_seed(seed, task.static_model ? 1 : 0), d.joint, progress);
+        const bool is_static = task.which == Which::static_model;
+        const bool is_symmetric = task.which == Which::symmetric;
+        ModelFit fit = fit_model(d, gains[task.joint], is_static ? Kind::stribeck : options.kind,
+                                 is_symmetric ? symmetric : options,
+                                 derive_seed(seed, is_static ? 1 : is_symmetric ? 2 : 0), d.joint, progress);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         auto& r = results[task.joint];  // each slot written by one task only
-        if (task.static_model) {
+        if (is_static) {
           r.static_model = std::move(fit);
           r.static_seconds = seconds;
+        } else if (is_symmetric) {
+          r.symmetric_model = std::move(fit);
+          r.symmetric_seconds = seconds;
         } else {
           r.joint = d.joint;
           r.model = std::move(fit);
@@ -833,7 +869,7 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
   for (auto& t : pool) t.join();
   for (auto& e : errors)
     if (e) std::rethrow_exception(e);
-  for (auto& r : results) r.seconds = r.model_seconds + r.static_seconds;
+  for (auto& r : results) r.seconds = r.model_seconds + r.static_seconds + r.symmetric_seconds;
   return results;
 }
 

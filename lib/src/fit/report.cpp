@@ -83,6 +83,22 @@ std::string metrics_line(const FitMetrics& m) {
   return printf_string("rms %.4g Nm  max %.4g Nm  R^2 %.6f", m.rms, m.max_abs, m.r_squared);
 }
 
+}  // namespace
+
+bool asymmetry_helped(const JointFit& fit) {
+  if (!fit.symmetric_model || !fit.model.asymmetric) return false;
+  const auto& m = fit.model;
+  const auto& s = *fit.symmetric_model;
+  if (!(m.metrics.rms < (1.0 - kAsymmetryGain) * s.metrics.rms)) return false;
+  for (int i : {6, 7}) {
+    const auto& e = m.estimates[static_cast<std::size_t>(i)];
+    if (e.used && e.free && std::isfinite(e.uncertainty) && std::abs(e.value) > 3.0 * e.uncertainty) return true;
+  }
+  return false;
+}
+
+namespace {
+
 void append_parameters(std::string& out, const ModelFit& m, const char* indent) {
   for (int i = 0; i < kParameterCount; ++i) {
     const auto& e = m.estimates[static_cast<std::size_t>(i)];
@@ -141,6 +157,11 @@ json report_json(const FitReport& r) {
     entry["observer_gains"] = {{"k1", j.gains.k1}, {"k2", j.gains.k2}, {"k3", j.gains.k3}};
     entry["fit"] = model_json(j.fit.model);
     entry["static"] = j.fit.static_model ? model_json(*j.fit.static_model) : json(nullptr);
+    entry["asymmetric"] = j.fit.model.asymmetric;
+    if (j.fit.symmetric_model) {
+      entry["symmetric"] = model_json(*j.fit.symmetric_model);
+      entry["asymmetry_helped"] = asymmetry_helped(j.fit);
+    }
     if (j.current)
       entry["current"] = {{"model", friction::kind_name(*j.current_kind)}, {"metrics", metrics_json(*j.current)}};
     else
@@ -203,6 +224,14 @@ std::string report_text(const FitReport& r) {
       out += '\n';
       append_parameters(out, s, "    ");
     }
+    if (j.fit.symmetric_model) {
+      const auto& s = *j.fit.symmetric_model;
+      out += printf_string("  symmetric %s: ", friction::kind_name(s.kind)) + metrics_line(s.metrics);
+      if (s.metrics.rms > 0)
+        out += printf_string("  (asymmetric: %+.1f%% rms, R^2 %+.2g)", 100.0 * (m.metrics.rms / s.metrics.rms - 1.0),
+                             m.metrics.r_squared - s.metrics.r_squared);
+      out += asymmetry_helped(j.fit) ? ": the asymmetry helped\n" : ": the asymmetry did not help (keep the symmetric model)\n";
+    }
     if (j.current)
       out += printf_string("  current profile friction (%s): ", friction::kind_name(*j.current_kind)) +
              metrics_line(*j.current) + "\n";
@@ -258,14 +287,13 @@ json merged_friction_section(const json* current, int joints, const std::vector<
   section["model"] = friction::kind_name(kind);
   if (kind == friction::Kind::lugre && !section.contains("update"))
     section["update"] = friction::update_name(options.update);
-  const auto used = model_parameters(kind);
   for (const auto& f : fits) {
     json& entry = section["joints"][static_cast<std::size_t>(f.joint - 1)];
     if (!entry.is_object()) entry = json::object();
     for (const char* name : friction::kParameterNames) entry.erase(name);
     double x[kParameterCount];
     f.model.parameters.to_array(x);
-    for (int i : used) entry[friction::kParameterNames[i]] = x[i];
+    for (int i : model_parameters(kind, f.model.asymmetric)) entry[friction::kParameterNames[i]] = x[i];
   }
   // The result must read back (catches a merge that left a joint incomplete).
   (void)friction::friction_from_json(section);

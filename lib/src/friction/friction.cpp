@@ -31,6 +31,12 @@ std::vector<int> used_parameters(Kind kind) {
   return {};
 }
 
+// Asymmetry parameters a model may carry (optional in the JSON, 0 when absent).
+std::vector<int> asymmetry_parameters(Kind kind) {
+  if (kind == Kind::coulomb_viscous) return {6};
+  return {6, 7};
+}
+
 [[noreturn]] void error(const std::string& message) { throw Error("friction: " + message); }
 
 }  // namespace
@@ -63,19 +69,30 @@ bool parse_update(const std::string& name, LugreUpdate* update) {
   return true;
 }
 
-bool is_valid(Kind kind, const Parameters<double>& p, std::string* why) {
+bool IsValid(Kind kind, const Parameters<double>& p, std::string* why) {
   double x[Parameters<double>::kSize];
   p.to_array(x);
-  for (int i : used_parameters(kind)) {
+  std::vector<int> checked = used_parameters(kind);
+  for (int i : asymmetry_parameters(kind)) checked.push_back(i);
+  for (int i : checked) {
     if (!std::isfinite(x[i])) return fail(why, std::string(kParameterNames[i]) + " is not finite");
   }
   if (p.sigma2 < 0) return fail(why, "sigma2 = " + number(p.sigma2) + " is negative");
   if (kind == Kind::coulomb_viscous) {
     if (p.tau_c < 0) return fail(why, "tau_c = " + number(p.tau_c) + " is negative");
+    if (std::abs(p.delta_c) > p.tau_c)
+      return fail(why, "|delta_c| = " + number(std::abs(p.delta_c)) + " exceeds tau_c = " + number(p.tau_c) +
+                           " (a negative level in one direction)");
     return true;
   }
   if (!(p.tau_c > 0)) return fail(why, "tau_c = " + number(p.tau_c) + " is not positive");
   if (!(p.tau_s > 0)) return fail(why, "tau_s = " + number(p.tau_s) + " is not positive");
+  if (!(std::abs(p.delta_c) < p.tau_c))
+    return fail(why, "|delta_c| = " + number(std::abs(p.delta_c)) + " is not below tau_c = " + number(p.tau_c) +
+                         " (the level of one direction would not be positive)");
+  if (!(std::abs(p.delta_s) < p.tau_s))
+    return fail(why, "|delta_s| = " + number(std::abs(p.delta_s)) + " is not below tau_s = " + number(p.tau_s) +
+                         " (the level of one direction would not be positive)");
   if (!(p.w_s > 0)) return fail(why, "w_s = " + number(p.w_s) + " is not positive");
   if (kind == Kind::lugre) {
     if (!(p.sigma0 > 0)) return fail(why, "sigma0 = " + number(p.sigma0) + " is not positive");
@@ -84,7 +101,7 @@ bool is_valid(Kind kind, const Parameters<double>& p, std::string* why) {
   return true;
 }
 
-bool Options::is_valid(std::string* why) const {
+bool Options::IsValid(std::string* why) const {
   if (!std::isfinite(velocity_deadband) || velocity_deadband < 0)
     return fail(why, "velocity_deadband = " + number(velocity_deadband) + " is not a finite value >= 0");
   if (!std::isfinite(velocity_cutoff_hz) || velocity_cutoff_hz < 0)
@@ -92,11 +109,11 @@ bool Options::is_valid(std::string* why) const {
   return true;
 }
 
-bool FrictionModel::is_valid(std::string* why) const {
-  if (!options.is_valid(why)) return false;
+bool FrictionModel::IsValid(std::string* why) const {
+  if (!options.IsValid(why)) return false;
   for (std::size_t j = 0; j < joints.size(); ++j) {
     std::string reason;
-    if (!friction::is_valid(kind, joints[j], &reason))
+    if (!friction::IsValid(kind, joints[j], &reason))
       return fail(why, "joint " + std::to_string(j + 1) + ": " + reason);
   }
   return true;
@@ -143,6 +160,7 @@ FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std:
       if (!read_number(entry, kParameterNames[i], &x[i], where))
         error(where + "missing '" + kParameterNames[i] + "' (needed by the " + kind_name(model.kind) + " model)");
     }
+    for (int i : asymmetry_parameters(model.kind)) read_number(entry, kParameterNames[i], &x[i], where);
     for (const auto& item : entry.items()) {
       bool is_parameter = false;
       for (const char* name : kParameterNames) is_parameter = is_parameter || item.key() == name;
@@ -151,7 +169,7 @@ FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std:
     model.joints.push_back(Parameters<double>::from_array(x));
   }
   std::string why;
-  if (!model.is_valid(&why)) error(why);
+  if (!model.IsValid(&why)) error(why);
   return model;
 }
 
@@ -168,6 +186,8 @@ nlohmann::json to_json(const FrictionModel& model) {
     p.to_array(x);
     nlohmann::json entry = nlohmann::json::object();
     for (int i : used) entry[kParameterNames[i]] = x[i];
+    for (int i : asymmetry_parameters(model.kind))
+      if (x[i] != 0) entry[kParameterNames[i]] = x[i];
     joints.push_back(std::move(entry));
   }
   section["joints"] = std::move(joints);

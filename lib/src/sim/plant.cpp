@@ -26,7 +26,7 @@ Plant::Plant(const model::Model& model, const friction::FrictionModel* friction,
       throw Error("simulation friction has " + std::to_string(friction->joints.size()) +
                   " joints, the chain has " + std::to_string(n));
     std::string why;
-    if (!friction->is_valid(&why)) throw Error("simulation friction: " + why);
+    if (!friction->IsValid(&why)) throw Error("simulation friction: " + why);
     friction_ = friction::make_joint_frictions(*friction);
   }
   q_.setZero(n);

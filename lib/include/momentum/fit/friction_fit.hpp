@@ -32,10 +32,10 @@
 
 namespace momentum::fit {
 
-inline constexpr int kParameterCount = friction::Parameters<double>::kSize;  // 6
+inline constexpr int kParameterCount = friction::Parameters<double>::kSize;  // 8
 
-// Search box for the six parameters, in friction::Parameters order (sigma0, sigma1, sigma2,
-// tau_c, tau_s, w_s); units Nm/rad, Nm s/rad, Nm s/rad, Nm, Nm, rad/s.
+// Search box for the parameters, in friction::Parameters order (sigma0, sigma1, sigma2, tau_c,
+// tau_s, w_s, delta_c, delta_s); units Nm/rad, Nm s/rad, Nm s/rad, Nm, Nm, rad/s, Nm, Nm.
 struct ParameterBounds {
   std::array<double, kParameterCount> lower{};
   std::array<double, kParameterCount> upper{};
@@ -43,15 +43,18 @@ struct ParameterBounds {
 
 // The paper's box: sigma0 (6e4, 1e5], sigma1 (0, 500], sigma2 (0, 10], tau_c, tau_s (0, 10],
 // w_s (0, 0.1]. Open lower ends of parameters that must be positive (tau_c, tau_s, w_s)
-// become 1e-6 of the upper end; sigma1 and sigma2 may be 0.
+// become 1e-6 of the upper end; sigma1 and sigma2 may be 0. Not in the paper: the asymmetries
+// delta_c, delta_s in [-3, 3] Nm (a 30% difference between directions at the paper's largest
+// levels); combinations that make a level non-positive are infeasible (infinite cost).
 ParameterBounds paper_bounds();
 
 // Index 0..5 of a parameter name ("sigma0", ..., "w_s"), or -1.
 int parameter_index(const std::string& name);
 
 // Which parameters a model uses: LuGre all six; Stribeck sigma2, tau_c, tau_s, w_s;
-// Coulomb-viscous sigma2, tau_c.
-std::vector<int> model_parameters(friction::Kind kind);
+// Coulomb-viscous sigma2, tau_c. With `asymmetric`, also delta_c (every model) and delta_s
+// (LuGre, Stribeck).
+std::vector<int> model_parameters(friction::Kind kind, bool asymmetric = false);
 
 // The short genetic search that mo-lugre-fit runs before the polish by default: population
 // 40, 60 generations, 2 runs, stop after 20 generations without improvement (paper's crossover
@@ -81,6 +84,10 @@ struct FitOptions {
   PolishOptions polish;
   // Also fit the static Stribeck model and report it beside LuGre (LuGre fits only).
   bool compare_static = true;
+  // Fit direction-dependent levels (delta_c, delta_s: friction::Parameters) as well, and the
+  // symmetric model beside it (JointFit::symmetric_model) so that the report says whether the
+  // asymmetry helped. The static comparison is then asymmetric too.
+  bool asymmetric = false;
   // A free parameter whose uncertainty (ParameterEstimate::uncertainty) exceeds this fraction
   // of its value, or of its bound interval when that is smaller, is flagged as not
   // identifiable. > 0.
@@ -132,6 +139,7 @@ struct ParameterEstimate {
 // The result of fitting one model to one joint.
 struct ModelFit {
   friction::Kind kind = friction::Kind::lugre;
+  bool asymmetric = false;                          // delta_c, delta_s fitted
   friction::Parameters<double> parameters;          // the estimate
   std::array<ParameterEstimate, kParameterCount> estimates;
   std::vector<int> free;                            // indices of the free parameters
@@ -161,9 +169,12 @@ struct JointFit {
   int joint = 0;
   ModelFit model;
   std::optional<ModelFit> static_model;
-  double seconds = 0;         // CPU-thread time spent on this joint (both models), s
+  // With FitOptions::asymmetric: the same model fitted without the asymmetry.
+  std::optional<ModelFit> symmetric_model;
+  double seconds = 0;         // CPU-thread time spent on this joint (all models), s
   double model_seconds = 0;   // of which the chosen model
-  double static_seconds = 0;  // and the static model
+  double static_seconds = 0;  // the static model
+  double symmetric_seconds = 0;  // and the symmetric model
 };
 
 // Progress of one joint's fit, from the worker thread fitting it.

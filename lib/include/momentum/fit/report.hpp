@@ -44,6 +44,15 @@ struct FitReport {
   double mirror_position_mismatch = 0;   // rad, see MirrorReference
 };
 
+// Relative RMS improvement the asymmetric model must bring over the symmetric one to count.
+inline constexpr double kAsymmetryGain = 0.02;
+
+// Whether fitting direction-dependent levels helped on a joint (FitOptions::asymmetric): the
+// asymmetric model's RMS is more than kAsymmetryGain (2%) below the symmetric model's, and
+// delta_c or delta_s is more than three uncertainties away from 0. False without a symmetric
+// comparison.
+bool asymmetry_helped(const JointFit& fit);
+
 // The JSON report: settings, and per joint the parameters (value, standard error, free,
 // at_bound "lower"/"upper"/null, identifiable, note), correlations of the free parameters,
 // metrics (rms, max_abs, r_squared, cost, samples), search and polish statistics, the static

@@ -10,7 +10,9 @@
 //                "velocity_deadband": 0.0,         // rad/s, optional
 //                "velocity_cutoff_hz": 0.0,        // Hz, optional, 0 = no low-pass
 //                "joints": [{"sigma0": 98467.9, "sigma1": 314.0, "sigma2": 6.49,
-//                            "tau_c": 7.83, "tau_s": 4.00, "w_s": 0.0978}, ...]}
+//                            "tau_c": 7.83, "tau_s": 4.00, "w_s": 0.0978,
+//                            "delta_c": 0.4, "delta_s": 0.2}, ...]}   // optional asymmetry
+// delta_c and delta_s (lugre.hpp) are optional, 0 when absent; Coulomb-viscous reads delta_c.
 #pragma once
 
 #include <cmath>
@@ -39,7 +41,7 @@ struct Options {
   double velocity_cutoff_hz = 0.0;
 
   // False (with the reason in `why`, when non-null) for negative or non-finite values.
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
 };
 
 // A friction model for every joint of a chain, in chain order (joint 1 nearest the root).
@@ -48,21 +50,21 @@ struct FrictionModel {
   Options options;
   std::vector<Parameters<double>> joints;
 
-  // Checks options and every joint's parameters (see is_valid(Kind, ...)); the reason names
+  // Checks options and every joint's parameters (see IsValid(Kind, ...)); the reason names
   // the joint (1-based).
-  bool is_valid(std::string* why) const;
+  bool IsValid(std::string* why) const;
 };
 
 // Reads a profile's "friction" section. Throws momentum::Error ("friction: joint 2: missing
 // 'tau_s'", ...; the caller adds the file name) when the section is not an object, the model
 // name is unknown, "joints" is missing or not an array of objects, a parameter the model needs
-// is missing or not a finite number, or the result fails FrictionModel::is_valid. Keys it does
+// is missing or not a finite number, or the result fails FrictionModel::IsValid. Keys it does
 // not know (in the section or a joint) are listed in `warnings` (when non-null), not errors.
 FrictionModel friction_from_json(const nlohmann::json& section,
                                  std::vector<std::string>* warnings = nullptr);
 
 // The section for a model: "model", "update" (LuGre), the velocity options when non-zero, and
-// per joint the parameters that the model uses.
+// per joint the parameters that the model uses (delta_c, delta_s only when non-zero).
 nlohmann::json to_json(const FrictionModel& model);
 
 // One joint's friction with its state (LuGre bristle deflection, velocity filter).

@@ -20,38 +20,46 @@
 
 namespace momentum::friction {
 
-// Six parameters per joint, in this order everywhere a vector of them is used (fitter, JSON):
-// sigma0, sigma1, sigma2, tau_c, tau_s, w_s. Static models ignore what they do not use
-// (Stribeck: sigma0, sigma1; Coulomb-viscous: sigma0, sigma1, tau_s, w_s).
-// Direction asymmetry (separate levels for negative velocity and a torque offset) would add
-// fields here and change stribeck_level() and the static curves only: every model reads the
-// levels through those functions.
+// Eight parameters per joint, in this order everywhere a vector of them is used (fitter, JSON):
+// sigma0, sigma1, sigma2, tau_c, tau_s, w_s, delta_c, delta_s. Static models ignore what they
+// do not use (Stribeck: sigma0, sigma1; Coulomb-viscous: sigma0, sigma1, tau_s, w_s, delta_s).
+//
+// Direction asymmetry (real gearboxes): delta_c and delta_s are half the difference between the
+// levels for positive and for negative velocity, so the Coulomb level is tau_c + delta_c moving
+// forward and tau_c - delta_c moving backward (tau_c is their mean), and likewise tau_s +-
+// delta_s. A constant torque offset o during sliding (a current-sensor bias, a cable pulling one
+// way) is the special case delta_c = delta_s = o. Both default to 0 (symmetric friction), so
+// parameter sets written without them keep their meaning; every model reads the levels through
+// stribeck_level() and coulomb_viscous_torque() only.
 template <class T>
 struct Parameters {
   T sigma0 = T(0);  // bristle stiffness, Nm/rad, > 0 (LuGre)
   T sigma1 = T(0);  // bristle (micro) damping, Nm s/rad, >= 0 (LuGre)
   T sigma2 = T(0);  // viscous coefficient, Nm s/rad, >= 0
-  T tau_c = T(0);   // Coulomb level, Nm, > 0 (>= 0 for Coulomb-viscous)
-  T tau_s = T(0);   // static (breakaway) level, Nm, > 0
+  T tau_c = T(0);   // Coulomb level (mean of both directions), Nm, > 0 (>= 0 for Coulomb-viscous)
+  T tau_s = T(0);   // static (breakaway) level (mean of both directions), Nm, > 0
   T w_s = T(1);     // Stribeck velocity, rad/s, > 0
+  T delta_c = T(0); // Coulomb asymmetry, Nm, |delta_c| < tau_c (<= for Coulomb-viscous)
+  T delta_s = T(0); // static-level asymmetry, Nm, |delta_s| < tau_s
 
-  static constexpr int kSize = 6;
+  static constexpr int kSize = 8;
 
   // From / to a plain array of kSize values in the order above.
-  static Parameters from_array(const T* x) { return {x[0], x[1], x[2], x[3], x[4], x[5]}; }
+  static Parameters from_array(const T* x) { return {x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7]}; }
   void to_array(T* x) const {
     x[0] = sigma0; x[1] = sigma1; x[2] = sigma2; x[3] = tau_c; x[4] = tau_s; x[5] = w_s;
+    x[6] = delta_c; x[7] = delta_s;
   }
   // Converts every parameter to another scalar type (double -> Jet for the fitter).
   template <class U>
   Parameters<U> cast() const {
-    return {U(sigma0), U(sigma1), U(sigma2), U(tau_c), U(tau_s), U(w_s)};
+    return {U(sigma0), U(sigma1), U(sigma2), U(tau_c), U(tau_s), U(w_s), U(delta_c), U(delta_s)};
   }
 };
 
 // Names of the parameters in array order, as used in the profile's JSON.
-inline constexpr const char* kParameterNames[6] = {"sigma0", "sigma1", "sigma2",
-                                                   "tau_c",  "tau_s",  "w_s"};
+inline constexpr const char* kParameterNames[8] = {"sigma0", "sigma1", "sigma2", "tau_c",
+                                                   "tau_s",  "w_s",    "delta_c", "delta_s"};
 
 // Which model a joint uses.
 enum class Kind { coulomb_viscous, stribeck, lugre };
@@ -71,13 +79,17 @@ T sign(const T& w) {
 }
 }  // namespace detail
 
-// The Stribeck level g(w) = tau_c + (tau_s - tau_c) exp(-(w/w_s)^2), Nm: the sliding friction
-// magnitude at velocity w. Positive whenever tau_c > 0 and tau_s > 0.
+// The Stribeck level g(w) = c + (s - c) exp(-(w/w_s)^2), Nm, with c = tau_c + sign(w) delta_c
+// and s = tau_s + sign(w) delta_s: the sliding friction magnitude at velocity w. Positive
+// whenever the levels of both directions are (see IsValid()).
 template <class T>
 T stribeck_level(const Parameters<T>& p, const T& w) {
   using std::exp;
   const T x = w / p.w_s;
-  return p.tau_c + (p.tau_s - p.tau_c) * exp(-x * x);
+  const T direction = detail::sign(w);
+  const T c = p.tau_c + direction * p.delta_c;
+  const T s = p.tau_s + direction * p.delta_s;
+  return c + (s - c) * exp(-x * x);
 }
 
 // Static Stribeck friction, Nm: g(w) sign(w) + sigma2 w (0 at w = 0). This is the LuGre steady
@@ -87,16 +99,17 @@ T stribeck_torque(const Parameters<T>& p, const T& w) {
   return stribeck_level(p, w) * detail::sign(w) + p.sigma2 * w;
 }
 
-// Coulomb-viscous friction, Nm: tau_c sign(w) + sigma2 w (0 at w = 0).
+// Coulomb-viscous friction, Nm: (tau_c + sign(w) delta_c) sign(w) + sigma2 w (0 at w = 0).
 template <class T>
 T coulomb_viscous_torque(const Parameters<T>& p, const T& w) {
-  return p.tau_c * detail::sign(w) + p.sigma2 * w;
+  const T direction = detail::sign(w);
+  return (p.tau_c + direction * p.delta_c) * direction + p.sigma2 * w;
 }
 
 // Advances the LuGre bristle state z (rad) over a step of dt seconds (>= 0) during which the
 // velocity is w, and returns the friction torque at the end of the step, Nm:
 // sigma0 z + sigma1 dz/dt + sigma2 w, with dz/dt = w - s0 |w| z / g(w) evaluated at the new z.
-// Requires sigma0 > 0 and g(w) > 0 (see is_valid()); no other failure case.
+// Requires sigma0 > 0 and g(w) > 0 (see IsValid()); no other failure case.
 template <class T>
 T lugre_step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, T& z) {
   using std::abs;
@@ -128,9 +141,10 @@ T lugre_step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, 
 }
 
 // Checks a parameter set for a model: finite numbers; sigma0 > 0 and sigma1 >= 0 for LuGre;
-// tau_c > 0, tau_s > 0, w_s > 0 for LuGre and Stribeck; tau_c >= 0 for Coulomb-viscous;
-// sigma2 >= 0 always. Returns false with the reason in `why` (when non-null).
-bool is_valid(Kind kind, const Parameters<double>& p, std::string* why);
+// tau_c > |delta_c|, tau_s > |delta_s|, w_s > 0 for LuGre and Stribeck (levels positive in both
+// directions); tau_c >= |delta_c| for Coulomb-viscous; sigma2 >= 0 always. Returns false with
+// the reason in `why` (when non-null).
+bool IsValid(Kind kind, const Parameters<double>& p, std::string* why);
 
 // "coulomb-viscous", "stribeck", "lugre".
 const char* kind_name(Kind kind);
