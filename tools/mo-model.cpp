@@ -8,6 +8,7 @@
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/model/describe.hpp"
+#include "momentum/model/inertial_corrections.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/model_stream.hpp"
 #include "momentum/model/profile.hpp"
@@ -45,7 +46,9 @@ int main(int argc, char** argv) {
     model::select_payload(profile, tool.payload());
     const model::Model robot = model::build_model(profile);
     if (chain || (tool.inputs().empty() && !stdin_is_a_stream())) {
-      const std::string text = model::describe_chain(robot, profile);
+      std::string text = model::describe_chain(robot, profile);
+      if (!model::read_inertial_corrections(profile).empty())
+        text += model::describe_corrections(model::build_nominal_model(profile), robot);
       std::fwrite(text.data(), 1, text.size(), stdout);
       return cli::kSuccess;
     }

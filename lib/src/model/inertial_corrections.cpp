@@ -1,6 +1,9 @@
 #include "momentum/model/inertial_corrections.hpp"
 
 #include <cmath>
+#include <cstdio>
+
+#include <Eigen/Eigenvalues>
 
 #include "momentum/stream/error.hpp"
 
@@ -122,6 +125,30 @@ nlohmann::json inertial_corrections_section(const Model& model, const Eigen::Vec
   }
   section["bodies"] = bodies;
   return section;
+}
+
+std::string describe_corrections(const Model& nominal, const Model& corrected) {
+  auto num = [](double x) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.6g", x);
+    return std::string(buffer);
+  };
+  auto triple = [&](const Eigen::Vector3d& v) { return num(v.x()) + " " + num(v.y()) + " " + num(v.z()); };
+  auto principal = [&](const Eigen::Matrix3d& inertia) {
+    return triple(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia, Eigen::EigenvaluesOnly).eigenvalues());
+  };
+  std::string out = "inertial corrections (mo-dynfit): nominal URDF -> corrected\n";
+  char line[512];
+  for (std::size_t k = 0; k < nominal.bodies.size() && k < corrected.bodies.size(); ++k) {
+    const Body& a = nominal.bodies[k];
+    const Body& b = corrected.bodies[k];
+    std::snprintf(line, sizeof line, "  %-12s mass %s -> %s kg, com %s -> %s m, principal_inertia %s -> %s kg m^2\n",
+                  a.name.c_str(), num(a.mass).c_str(), num(b.mass).c_str(), triple(a.com).c_str(),
+                  triple(b.com).c_str(), principal(a.inertia).c_str(), principal(b.inertia).c_str());
+    out += line;
+  }
+  out += "  total mass " + num(nominal.total_mass()) + " -> " + num(corrected.total_mass()) + " kg\n";
+  return out;
 }
 
 }  // namespace momentum::model

@@ -17,6 +17,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "momentum/model/inertial_corrections.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::model {
@@ -360,7 +361,9 @@ bool is_physical_inertia(const Eigen::Matrix3d& inertia, std::string* why) {
 
 Model build_model(const Profile& profile) {
   const urdf::ModelInterfaceSharedPtr urdf = parse_urdf(profile.urdf);
-  return Builder{profile, *urdf, profile.urdf.string(), {}}.build();
+  Model model = Builder{profile, *urdf, profile.urdf.string(), {}}.build();
+  apply_inertial_corrections(profile, model);  // mo-dynfit's corrections, if any
+  return model;
 }
 
 }  // namespace momentum::model

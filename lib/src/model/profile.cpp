@@ -134,7 +134,8 @@ const std::vector<std::string>& known_profile_keys() {
   static const std::vector<std::string> keys = {
       "urdf",     "root",       "tip",      "gravity",    "joints",
       "observer", "friction",   "thresholds", "provenance", "payloads",
-      "dynamics", "simulation", "name",     "description", "active_payload"};
+      "dynamics", "simulation", "name",     "description", "active_payload",
+      "inertial_corrections"};
   return keys;
 }
 

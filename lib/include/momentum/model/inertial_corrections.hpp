@@ -54,4 +54,8 @@ Model build_nominal_model(const Profile& profile);
 nlohmann::json inertial_corrections_section(const Model& model, const Eigen::VectorXd& delta,
                                             const nlohmann::json& details);
 
+// Text for mo-model: per body, mass, centre of mass and principal moments of inertia of the
+// nominal model and of the corrected one side by side, then the total mass. Ends with a newline.
+std::string describe_corrections(const Model& nominal, const Model& corrected);
+
 }  // namespace momentum::model

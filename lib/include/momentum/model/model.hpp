@@ -87,7 +87,8 @@ struct Model {
 // moving body ends up with no mass. A chain with no moving joint is an error too. The active
 // payload (Profile::payload()) is merged into the body its link belongs to; a payload link that
 // is not in the URDF, not on or below the chain, or on the fixed base is an error naming the
-// profile file.
+// profile file. The profile's "inertial_corrections" (mo-dynfit) are then added to the bodies'
+// standard parameters (inertial_corrections.hpp; a body left non-physical is an error).
 Model build_model(const Profile& profile);
 
 // Checks one rotational inertia (about its com, any frame): symmetric, positive definite, and
