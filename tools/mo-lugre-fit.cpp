@@ -94,9 +94,6 @@ int main(int argc, char** argv) {
   bool asymmetric = false;
   app.add_flag("--asymmetric", asymmetric,
                "also fit direction-dependent levels (delta_c, delta_s), and the symmetric model for comparison");
-  bool asymmetric = false;
-  app.add_flag("--asymmetric", asymmetric,
-               "also fit direction-dependent levels (delta_c, delta_s), and the symmetric model for comparison");
   app.add_option("--bounds", bounds_text, "search box, e.g. sigma0=5e4:2e5,w_s=0.001:0.5")->type_name("LIST");
   app.add_option("--fix", fix_text, "hold parameters at values, e.g. sigma0=1e5")->type_name("LIST");
   app.add_option("--threads", threads, "joints fitted at once (default: one per core)")->type_name("N");
@@ -127,10 +124,10 @@ int main(int argc, char** argv) {
     ga.mutation = mutation;
     ga.elite = elite;
     ga.seed = tool.seed();
-    options.asymmetric = asymmetric;
     options.global.max_evaluations = evaluations;
     options.polish.enabled = !no_polish;
     options.compare_static = !no_static;
+    options.asymmetric = asymmetric;
     parse_assignments(bounds_text, "--bounds", [&](int i, const std::string& range) {
       const auto colon = range.find(':');
       if (colon == std::string::npos) throw cli::UsageError("--bounds: '" + range + "' is not LO:HI");
@@ -269,6 +266,11 @@ int main(int argc, char** argv) {
         j.current = fit::evaluate_fit(series[i], gains[i], current->kind,
                                       current->joints[static_cast<std::size_t>(fits[i].joint - 1)], current->options);
       }
+      const auto model_r = fit::predict_residual(series[i], gains[i], j.fit.model.kind, j.fit.model.parameters,
+                                                 options.friction);
+      std::vector<double> left(model_r.size());
+      for (std::size_t k = 0; k < left.size(); ++k) left[k] = series[i].r[k] - model_r[k];
+      j.residual_split = fit::split_residual(series[i], gains[i], left);
       report.joints.push_back(std::move(j));
     }
     if (!mirror_logs.empty()) {
@@ -322,6 +324,8 @@ int main(int argc, char** argv) {
           const fs::path to = fs::absolute(fs::path(destination)).parent_path();
           if (from != to && document.contains("urdf"))
             document["urdf"] = fs::relative(fs::absolute(profile.urdf), to).generic_string();
+    for (const auto& j : report.joints)
+      if (const std::string w = fit::position_dependence_warning(j); !w.empty()) warn(w);
           model::save_profile_atomically(document, destination);
         }
         report.outcome = "friction written to " + (destination == "-" ? std::string("stdout") : destination);

@@ -55,6 +55,12 @@ void append_series(JointSeries& into, const JointSeries& more) {
     into.restart.push_back(k == 0 ? 2 : more.restart[k]);
     into.scored.push_back(more.scored[k]);
   }
+  if (into.positions.size() == more.positions.size()) {
+    for (std::size_t j = 0; j < into.positions.size(); ++j)
+      into.positions[j].insert(into.positions[j].end(), more.positions[j].begin(), more.positions[j].end());
+  } else {
+    into.positions.clear();  // one log without positions: none for the whole series
+  }
   if (into.source != more.source) into.source += ", " + more.source;
 }
 
@@ -104,6 +110,10 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
     series[i].source = in.name();
   }
   const auto restart_col = in.find("restart");
+  std::vector<std::size_t> q_col;
+  for (std::size_t k = 1; k <= stream::count_joint_columns(in.columns(), "q"); ++k)
+    q_col.push_back(in.require("q" + std::to_string(k)));
+  for (auto& s : series) s.positions.resize(q_col.size());
 
   std::vector<std::uint8_t> pending(joints.size(), 1);  // next good row restarts the joint
   bool have_time = false;
@@ -125,9 +135,11 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
     const bool restart_row = restart_col && row[*restart_col] != 0;
     const bool counts = t >= t_first + options.skip &&
                         (!options.window_begin || t >= *options.window_begin);
+    bool positions_ok = true;
+    for (std::size_t c : q_col) positions_ok = positions_ok && std::isfinite(row[c]);
     for (std::size_t i = 0; i < joints.size(); ++i) {
       const double dq = row[dq_col[i]], r = row[r_col[i]];
-      if (!std::isfinite(dq) || !std::isfinite(r)) {
+      if (!std::isfinite(dq) || !std::isfinite(r) || !positions_ok) {
         pending[i] = 1;
         continue;
       }
@@ -137,6 +149,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       s.r.push_back(r);
       s.restart.push_back(s.t.size() == 1 ? 2 : (pending[i] || restart_row ? 1 : 0));
       s.scored.push_back(counts ? 1 : 0);
+      for (std::size_t c = 0; c < q_col.size(); ++c) s.positions[c].push_back(row[q_col[c]]);
       pending[i] = 0;
     }
   }

@@ -85,6 +85,15 @@ std::string metrics_line(const FitMetrics& m) {
 
 }  // namespace
 
+std::string position_dependence_warning(const JointReport& j) {
+  const auto& s = j.residual_split;
+  if (!s.computed || !s.position_dependent) return {};
+  return printf_string("joint %d: %.0f%% of the residual the friction model leaves (rms %.3g Nm) depends on the "
+                       "joint positions (velocity explains %.0f%%): a model error (masses, inertia, payload), not "
+                       "friction; correct the model with mo-dynfit(1) and fit the friction again",
+                       j.fit.joint, 100.0 * s.position_fraction, s.residual_rms, 100.0 * s.velocity_fraction);
+}
+
 bool asymmetry_helped(const JointFit& fit) {
   if (!fit.symmetric_model || !fit.model.asymmetric) return false;
   const auto& m = fit.model;
@@ -158,6 +167,17 @@ json report_json(const FitReport& r) {
     entry["fit"] = model_json(j.fit.model);
     entry["static"] = j.fit.static_model ? model_json(*j.fit.static_model) : json(nullptr);
     entry["asymmetric"] = j.fit.model.asymmetric;
+    if (j.residual_split.computed)
+      entry["residual_split"] = {{"samples", j.residual_split.samples},
+                                 {"residual_rms", number(j.residual_split.residual_rms)},
+                                 {"position_fraction", number(j.residual_split.position_fraction)},
+                                 {"velocity_fraction", number(j.residual_split.velocity_fraction)},
+                                 {"explained_rms", number(j.residual_split.explained_rms)},
+                                 {"signal_rms", number(j.residual_split.signal_rms)},
+                                 {"position_features", j.residual_split.position_features},
+                                 {"position_dependent", j.residual_split.position_dependent}};
+    else
+      entry["residual_split"] = nullptr;
     if (j.fit.symmetric_model) {
       entry["symmetric"] = model_json(*j.fit.symmetric_model);
       entry["asymmetry_helped"] = asymmetry_helped(j.fit);
@@ -223,6 +243,12 @@ std::string report_text(const FitReport& r) {
         out += printf_string("  (lugre: %+.1f%% rms)", 100.0 * (m.metrics.rms / s.metrics.rms - 1.0));
       out += '\n';
       append_parameters(out, s, "    ");
+    }
+    if (j.residual_split.computed) {
+      const auto& split = j.residual_split;
+      out += printf_string("  left after friction: rms %.4g Nm, of which positions explain %.1f%%, velocity %.1f%%%s\n",
+                           split.residual_rms, 100.0 * split.position_fraction, 100.0 * split.velocity_fraction,
+                           split.position_dependent ? " (position-dependent: see the warning)" : "");
     }
     if (j.fit.symmetric_model) {
       const auto& s = *j.fit.symmetric_model;

@@ -25,6 +25,9 @@ struct JointSeries {
   std::vector<std::uint8_t> restart;
   std::vector<std::uint8_t> scored;    // 1 where the sample counts in the cost and the metrics
   std::string source;                  // the input's name, for messages
+  // Every joint's position at each sample, [k - 1][sample] for q<k>, rad, when the stream has
+  // q1..qn columns (empty otherwise): what a model error depends on (robustness.hpp).
+  std::vector<std::vector<double>> positions;
 
   std::size_t size() const { return t.size(); }
   std::size_t scored_count() const;
@@ -67,8 +70,9 @@ double estimate_velocity_noise(const JointSeries& series);
 
 // Reads the whole stream: columns t, dq<j>, r<j> (and `restart` when present). Rows whose time
 // does not increase are rejected through Reader::reject_row (skipped, or an error with
-// --strict); a row with NaN/inf in t is skipped for every joint, in dq<j> or r<j> for that joint
-// only, and the joint's next good row is a restart. Rows after window_end are not kept.
+// --strict); a row with NaN/inf in t is skipped for every joint, in dq<j> or r<j> (or in any
+// q<k>, when the stream has positions) for that joint only, and the joint's next good row is a
+// restart. Positions q1..qn are kept in JointSeries::positions when the stream has them. Rows after window_end are not kept.
 // Throws momentum::Error (`file: message`) when a column is missing, no joint has both dq<j>
 // and r<j>, a requested joint is absent, or a joint has no sample left to count.
 std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& options);

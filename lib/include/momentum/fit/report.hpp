@@ -11,6 +11,7 @@
 
 #include "momentum/fit/friction_fit.hpp"
 #include "momentum/fit/mirror.hpp"
+#include "momentum/fit/robustness.hpp"
 #include "momentum/friction/friction.hpp"
 
 namespace momentum::fit {
@@ -30,7 +31,13 @@ struct JointReport {
   // The mirror check (mirror.hpp) of the fitted model and of the static model, when run.
   std::optional<MirrorCheck> mirror;
   std::optional<MirrorCheck> mirror_static;
+  // What the fitted model leaves, split by what it depends on (robustness.hpp).
+  ResidualSplit residual_split;
 };
+
+// The warning for a joint whose residual after friction is mostly position-dependent (empty
+// when it is not): names the joint and points at mo-dynfit.
+std::string position_dependence_warning(const JointReport& joint);
 
 struct FitReport {
   std::vector<std::string> inputs;    // logs fitted
