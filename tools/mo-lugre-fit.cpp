@@ -324,13 +324,13 @@ int main(int argc, char** argv) {
           const fs::path to = fs::absolute(fs::path(destination)).parent_path();
           if (from != to && document.contains("urdf"))
             document["urdf"] = fs::relative(fs::absolute(profile.urdf), to).generic_string();
-    for (const auto& j : report.joints)
-      if (const std::string w = fit::position_dependence_warning(j); !w.empty()) warn(w);
           model::save_profile_atomically(document, destination);
         }
         report.outcome = "friction written to " + (destination == "-" ? std::string("stdout") : destination);
       }
     }
+    for (const auto& j : report.joints)
+      if (const std::string w = fit::position_dependence_warning(j); !w.empty()) warn(w);
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!tool.quiet()) std::fputs(fit::report_text(report).c_str(), stderr);
     if (!report_path.empty()) {
