@@ -191,3 +191,45 @@ TEST(StandardParameters, RoundTripAndLinearity) {
 }
 
 }  // namespace
+
+namespace {
+
+// The profile's inertial_corrections section as build_model applies it: the corrected body's
+// standard parameters are the URDF's plus the correction, by hand.
+TEST(InertialCorrections, BuildModelAppliesTheSection) {
+  const std::string path = std::string(MOMENTUM_TEST_DATA) + "/dynfit/nominal.json";
+  const momentum::model::Profile plain = momentum::model::load_profile(path);
+  const Model nominal = momentum::model::build_model(plain);
+  nlohmann::json document = plain.document;
+  // +0.5 kg at 0.3 m along z of the forearm frame, as a point mass: dm = 0.5, dmz = 0.15,
+  // dixx = diyy = 0.5 * 0.3^2 = 0.045.
+  document["inertial_corrections"] = {
+      {"bodies", {{"forearm", {0.5, 0.0, 0.0, 0.15, 0.045, 0.0, 0.0, 0.045, 0.0, 0.0}}}}};
+  const Model corrected =
+      momentum::model::build_model(momentum::model::profile_from_document(document, path));
+  const auto& a = nominal.bodies[2];
+  const auto& b = corrected.bodies[2];
+  EXPECT_NEAR(b.mass, a.mass + 0.5, 1e-12);
+  EXPECT_LT((b.com - (a.mass * a.com + 0.5 * Eigen::Vector3d(0, 0, 0.3)) / (a.mass + 0.5)).norm(), 1e-12);
+  EXPECT_NEAR(corrected.bodies[0].mass, nominal.bodies[0].mass, 0.0);
+  // The nominal model ignores the section.
+  const Model again = momentum::model::build_nominal_model(momentum::model::profile_from_document(document, path));
+  EXPECT_EQ(again.bodies[2].mass, a.mass);
+  // Errors name the profile.
+  document["inertial_corrections"]["bodies"] = {{"no_such_link", {0, 0, 0, 0, 0, 0, 0, 0, 0, 0}}};
+  try {
+    momentum::model::build_model(momentum::model::profile_from_document(document, path));
+    ADD_FAILURE() << "unknown body accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("nominal.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no_such_link"), std::string::npos) << e.what();
+  }
+  document["inertial_corrections"]["bodies"] = {{"forearm", {-5, 0, 0, 0, 0, 0, 0, 0, 0, 0}}};
+  EXPECT_THROW(momentum::model::build_model(momentum::model::profile_from_document(document, path)),
+               std::exception);
+  document["inertial_corrections"]["bodies"] = {{"forearm", {1, 2, 3}}};
+  EXPECT_THROW(momentum::model::build_model(momentum::model::profile_from_document(document, path)),
+               std::exception);
+}
+
+}  // namespace
