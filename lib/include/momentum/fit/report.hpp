@@ -52,10 +52,10 @@ struct FitReport {
 };
 
 // Relative RMS improvement the asymmetric model must bring over the symmetric one to count.
-inline constexpr double kAsymmetryGain = 0.02;
+inline constexpr double kAsymmetryGain = 0.05;
 
 // Whether fitting direction-dependent levels helped on a joint (FitOptions::asymmetric): the
-// asymmetric model's RMS is more than kAsymmetryGain (2%) below the symmetric model's, and
+// asymmetric model's RMS is more than kAsymmetryGain (5%) below the symmetric model's, and
 // delta_c or delta_s is more than three uncertainties away from 0. False without a symmetric
 // comparison.
 bool asymmetry_helped(const JointFit& fit);
