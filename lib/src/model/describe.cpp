@@ -8,19 +8,14 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "momentum/stream/error.hpp"
+
 namespace momentum::model {
 
 namespace {
 
-std::string number(double x) {
-  if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-  char text[32];
-  std::snprintf(text, sizeof text, "%.6g", x == 0.0 ? 0.0 : x);  // no "-0"
-  return text;
-}
-
 std::string triple(const Eigen::Vector3d& v) {
-  return number(v.x()) + " " + number(v.y()) + " " + number(v.z());
+  return short_number(v.x()) + " " + short_number(v.y()) + " " + short_number(v.z());
 }
 
 // Roll-pitch-yaw as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll).
@@ -79,9 +74,9 @@ std::string describe_chain(const Model& model, const Profile& profile) {
                       joint.type == JointType::prismatic ? "prismatic"
                       : joint.continuous                 ? "continuous"
                                                          : "revolute",
-                      triple(joint.axis), number(joint.limits.lower), number(joint.limits.upper),
-                      number(joint.limits.velocity), number(joint.limits.effort),
-                      number(model.k_i[j]), number(model.rotor_inertia[j])});
+                      triple(joint.axis), short_number(joint.limits.lower), short_number(joint.limits.upper),
+                      short_number(joint.limits.velocity), short_number(joint.limits.effort),
+                      short_number(model.k_i[j]), short_number(model.rotor_inertia[j])});
   }
   out += table(joints) + "\n";
 
@@ -91,11 +86,11 @@ std::string describe_chain(const Model& model, const Profile& profile) {
     const Body& body = model.bodies[j];
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(body.inertia,
                                                                 Eigen::EigenvaluesOnly);
-    bodies.push_back({std::to_string(j + 1), body.name, number(body.mass), triple(body.com),
+    bodies.push_back({std::to_string(j + 1), body.name, short_number(body.mass), triple(body.com),
                       triple(solver.eigenvalues()), join(body.merged_links)});
   }
   out += table(bodies) + "\n";
-  out += "total mass " + number(model.total_mass()) + " kg (moving bodies)\n";
+  out += "total mass " + short_number(model.total_mass()) + " kg (moving bodies)\n";
   out += "tip        " + model.tip + " in " + model.bodies.back().name + " frame: xyz " +
          triple(model.tip_placement.translation) + ", rpy " +
          triple(rpy(model.tip_placement.rotation)) + "\n";
@@ -105,7 +100,7 @@ std::string describe_chain(const Model& model, const Profile& profile) {
   if (const Payload* payload = profile.payload(); payload && model.payload_body >= 0) {
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(payload->inertia,
                                                                 Eigen::EigenvaluesOnly);
-    out += "payload    " + payload->name + ": " + number(payload->mass) + " kg, com " +
+    out += "payload    " + payload->name + ": " + short_number(payload->mass) + " kg, com " +
            triple(payload->com) + " m in " + (payload->link.empty() ? model.tip : payload->link) +
            ", principal_inertia " + triple(solver.eigenvalues()) + " kg m^2, in body " +
            std::to_string(model.payload_body + 1) + " (included above)\n";

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <sstream>
 
 #include "momentum/sim/random.hpp"
 #include "momentum/stream/error.hpp"
@@ -25,13 +24,6 @@ bool fail(std::string* why, const std::string& message) {
 
 bool range_ok(double lo, double hi, bool allow_zero) {
   return std::isfinite(lo) && std::isfinite(hi) && (allow_zero ? lo >= 0 : lo > 0) && lo <= hi;
-}
-
-std::string number(double x) {
-  std::ostringstream s;
-  s.precision(6);
-  s << x;
-  return s.str();
 }
 
 // 0 -> 1 over [a, b] as a raised cosine (C1: zero slope at both ends).
@@ -175,9 +167,9 @@ std::vector<Contact> plan_contacts(const ContactOptions& options, const model::M
   const double span = t_end - t_begin;
   const double needed = busy + std::max(0, options.count - 1) * options.min_spacing;
   if (options.count > 0 && !(needed <= span))
-    throw Error("collisions: " + std::to_string(options.count) + " contacts need " + number(needed) +
-                " s of steady motion with a spacing of " + number(options.min_spacing) + " s, the run has " +
-                number(std::max(0.0, span)) + " s; raise --duration or lower --min-spacing");
+    throw Error("collisions: " + std::to_string(options.count) + " contacts need " + short_number(needed) +
+                " s of steady motion with a spacing of " + short_number(options.min_spacing) + " s, the run has " +
+                short_number(std::max(0.0, span)) + " s; raise --duration or lower --min-spacing");
   // Uniform placement: N sorted uniform draws of the slack, then the contacts in order.
   std::vector<double> slack(options.count);
   for (auto& s : slack) s = random.uniform(0, span - needed);

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <memory>
 #include <optional>
-#include <sstream>
 
 #include "momentum/model/dynamics.hpp"
 #include "momentum/stream/error.hpp"
@@ -20,13 +19,6 @@ constexpr std::uint64_t kContactPlanStream = 2;
 constexpr std::uint64_t kSensorStream = 3;
 // Contacts start at least this long after the entry blend (the observer's start-up).
 constexpr double kContactGuard = 1.0;
-
-std::string number(double x) {
-  std::ostringstream s;
-  s.precision(6);
-  s << x;
-  return s.str();
-}
 
 }  // namespace
 
@@ -212,7 +204,7 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
     ++summary.steps;
     if ((step & 1023) == 0) {
       if (!plant.q().allFinite() || !plant.dq().allFinite())
-        throw Error("the simulation diverged at t = " + number(t) +
+        throw Error("the simulation diverged at t = " + short_number(t) +
                     " s; raise --internal-rate or use --integrator rk4");
       if ((step & 16383) == 0 && callbacks.progress) callbacks.progress(t);
     }

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <sstream>
 
 #include "momentum/stream/error.hpp"
 
@@ -21,13 +20,6 @@ constexpr std::uint64_t kPhaseStream = 12;
 bool fail(std::string* why, const std::string& message) {
   if (why) *why = message;
   return false;
-}
-
-std::string number(double x) {
-  std::ostringstream s;
-  s.precision(6);
-  s << x;
-  return s.str();
 }
 
 }  // namespace
@@ -59,8 +51,8 @@ bool TrajectoryOptions::IsValid(std::string* why) const {
   if (kind == TrajectoryKind::paper || kind == TrajectoryKind::multisine) {
     if (!positive(blend)) return fail(why, "blend must be a positive number of seconds");
     if (2 * blend > duration)
-      return fail(why, "duration " + number(duration) + " s is shorter than the two blends of " +
-                           number(blend) + " s");
+      return fail(why, "duration " + short_number(duration) + " s is shorter than the two blends of " +
+                           short_number(blend) + " s");
     if (!positive(amplitude)) return fail(why, "amplitude must be positive");
   }
   if (kind == TrajectoryKind::paper && !positive(frequency))
@@ -129,8 +121,8 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
     upper_[j] = lim.upper;
     vmax_[j] = std::isfinite(lim.velocity) && lim.velocity > 0 ? lim.velocity : kDefaultVelocityLimit;
     if (!(home[j] >= lower_[j] && home[j] <= upper_[j]))
-      throw Error("trajectory: home position " + number(home[j]) + " of joint " + std::to_string(j + 1) +
-                  " is outside its limits [" + number(lower_[j]) + ", " + number(upper_[j]) + "]");
+      throw Error("trajectory: home position " + short_number(home[j]) + " of joint " + std::to_string(j + 1) +
+                  " is outside its limits [" + short_number(lower_[j]) + ", " + short_number(upper_[j]) + "]");
   }
   const double D = options.duration, Tb = options.blend;
 
@@ -202,8 +194,8 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
     for (int j = 0; j < n_; ++j) {
       if (q[j] < lower_[j] || q[j] > upper_[j])
         throw Error("trajectory " + std::string(trajectory_name(options.kind)) + ": joint " +
-                    std::to_string(j + 1) + " would reach " + number(q[j]) + " at t = " + number(t) +
-                    " s, outside its limits [" + number(lower_[j]) + ", " + number(upper_[j]) +
+                    std::to_string(j + 1) + " would reach " + short_number(q[j]) + " at t = " + short_number(t) +
+                    " s, outside its limits [" + short_number(lower_[j]) + ", " + short_number(upper_[j]) +
                     "]; move the home pose or lower the amplitude");
     }
   };

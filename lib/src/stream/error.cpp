@@ -31,4 +31,10 @@ std::string located(std::string_view file, std::uint64_t line, std::string_view 
   return out;
 }
 
+std::string short_number(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", x == 0.0 ? 0.0 : x);
+  return text;
+}
+
 }  // namespace momentum
