@@ -10,9 +10,7 @@
 
 #include <ceres/jet.h>
 
-#include <fstream>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -20,6 +18,7 @@
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/inertial_corrections.hpp"
 #include "momentum/model/profile.hpp"
+#include "../support/reference_table.hpp"
 
 namespace {
 
@@ -62,49 +61,13 @@ VectorXd regressor_torque(const Model& model, const VectorXd& q, const VectorXd&
   return dYp * theta + model.rotor_inertia.cwiseProduct(ddq) + Ybv * theta;
 }
 
-struct Table {
-  std::vector<std::string> header;
-  std::vector<std::vector<double>> rows;
-  int column(const std::string& name) const {
-    for (std::size_t k = 0; k < header.size(); ++k)
-      if (header[k] == name) return static_cast<int>(k);
-    ADD_FAILURE() << "no column " << name;
-    return 0;
-  }
-  VectorXd vector(std::size_t row, const std::string& prefix, int n) const {
-    VectorXd v(n);
-    for (int j = 0; j < n; ++j) v[j] = rows[row][static_cast<std::size_t>(column(prefix + std::to_string(j + 1)))];
-    return v;
-  }
-};
-
-Table read_table(const std::string& path) {
-  std::ifstream in(path);
-  EXPECT_TRUE(in.good()) << path;
-  Table table;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::stringstream cells(line);
-    std::string cell;
-    std::vector<double> row;
-    if (table.header.empty()) {
-      while (std::getline(cells, cell, ',')) table.header.push_back(cell);
-    } else {
-      while (std::getline(cells, cell, ',')) row.push_back(std::stod(cell));
-      table.rows.push_back(row);
-    }
-  }
-  return table;
-}
-
 class Pinocchio : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Pinocchio, RegressorTimesParametersMatches) {
   Model model = load(GetParam());
   model.rotor_inertia.setZero();  // Pinocchio's values have no rotor inertia
   const int n = model.nq;
-  const Table table = read_table(std::string(MOMENTUM_TEST_DATA) + "/" + GetParam() + ".points.csv");
+  const auto table = momentum::testing::read_reference_table(std::string(MOMENTUM_TEST_DATA) + "/" + GetParam() + ".points.csv");
   ASSERT_EQ(table.rows.size(), 40u);
   const VectorXd theta = momentum::dynfit::model_parameters(model);
   momentum::model::Data data(model);

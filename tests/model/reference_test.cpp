@@ -3,14 +3,12 @@
 // random states each, to 1e-9 relative to the norm of the reference matrix or vector.
 #include <gtest/gtest.h>
 
-#include <fstream>
-#include <map>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/profile.hpp"
+#include "../support/reference_table.hpp"
 
 namespace {
 
@@ -18,51 +16,6 @@ using momentum::model::Data;
 using momentum::model::Model;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
-
-struct Table {
-  std::string comment;
-  std::vector<std::string> header;
-  std::vector<std::vector<double>> rows;
-  int column(const std::string& name) const {
-    for (std::size_t k = 0; k < header.size(); ++k) {
-      if (header[k] == name) return static_cast<int>(k);
-    }
-    ADD_FAILURE() << "no column " << name;
-    return 0;
-  }
-};
-
-Table read_table(const std::string& path) {
-  std::ifstream in(path);
-  EXPECT_TRUE(in.good()) << path;
-  Table table;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    if (line[0] == '#') {
-      table.comment += line;
-      continue;
-    }
-    std::stringstream cells(line);
-    std::string cell;
-    if (table.header.empty()) {
-      while (std::getline(cells, cell, ',')) table.header.push_back(cell);
-    } else {
-      std::vector<double> row;
-      while (std::getline(cells, cell, ',')) row.push_back(std::stod(cell));
-      EXPECT_EQ(row.size(), table.header.size());
-      table.rows.push_back(row);
-    }
-  }
-  return table;
-}
-
-VectorXd vector_from(const Table& table, const std::vector<double>& row, const std::string& prefix,
-                     int n) {
-  VectorXd v(n);
-  for (int j = 0; j < n; ++j) v[j] = row[table.column(prefix + std::to_string(j + 1))];
-  return v;
-}
 
 double relative(const MatrixXd& got, const MatrixXd& want) {
   return (got - want).norm() / std::max(want.norm(), 1e-300);
@@ -73,7 +26,7 @@ class Reference : public ::testing::TestWithParam<std::string> {};
 TEST_P(Reference, MatchesPinocchio) {
   const std::string data = MOMENTUM_TEST_DATA;
   const std::string robot = GetParam();
-  const Table table = read_table(data + "/" + robot + ".points.csv");
+  const auto table = momentum::testing::read_reference_table(data + "/" + robot + ".points.csv");
   ASSERT_EQ(table.rows.size(), 40u);
   // The header comment states the gravity Pinocchio used.
   ASSERT_NE(table.comment.find("gravity -9.81 z"), std::string::npos) << table.comment;
@@ -90,20 +43,21 @@ TEST_P(Reference, MatchesPinocchio) {
   Data data_(model);
   MatrixXd M;
   VectorXd g, cqd, ctqd, tau, p, beta;
-  for (const auto& row : table.rows) {
-    const VectorXd q = vector_from(table, row, "q", n);
-    const VectorXd dq = vector_from(table, row, "dq", n);
-    const VectorXd ddq = vector_from(table, row, "ddq", n);
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    const auto& row = table.rows[r];
+    const VectorXd q = table.vector(r, "q", n);
+    const VectorXd dq = table.vector(r, "dq", n);
+    const VectorXd ddq = table.vector(r, "ddq", n);
     MatrixXd M_ref(n, n);
     for (int i = 0; i < n; ++i) {
       for (int k = 0; k < n; ++k) {
         M_ref(i, k) = row[table.column("m" + std::to_string(i + 1) + "_" + std::to_string(k + 1))];
       }
     }
-    const VectorXd g_ref = vector_from(table, row, "g", n);
-    const VectorXd cqd_ref = vector_from(table, row, "cqd", n);
-    const VectorXd ctqd_ref = vector_from(table, row, "ctqd", n);
-    const VectorXd tau_ref = vector_from(table, row, "tau_id", n);
+    const VectorXd g_ref = table.vector(r, "g", n);
+    const VectorXd cqd_ref = table.vector(r, "cqd", n);
+    const VectorXd ctqd_ref = table.vector(r, "ctqd", n);
+    const VectorXd tau_ref = table.vector(r, "tau_id", n);
 
     momentum::model::mass_matrix(model, data_, q, M);
     momentum::model::gravity_torque(model, data_, q, g);
