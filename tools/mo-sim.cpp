@@ -57,12 +57,12 @@ int main(int argc, char** argv) {
 
   std::string trajectory = "paper", integrator = "rk4", velocity = "measured", direction = "normal";
   std::optional<double> duration;
-  app.add_option("--trajectory", trajectory, "paper, multisine, ptp or hold")
-      ->check(CLI::IsMember({"paper", "multisine", "ptp", "hold"}))->capture_default_str();
+  app.add_option("--trajectory", trajectory, "paper, multisine, excite, ptp or hold")
+      ->check(CLI::IsMember({"paper", "multisine", "excite", "ptp", "hold"}))->capture_default_str();
   app.add_flag("--mirror", run.trajectory.mirror, "play the trajectory backwards in time (the mirror of mo-lugre-fit --mirror)");
   app.add_option("--duration", duration, "length in seconds (default: 60, longer for many collisions)")->type_name("S");
   app.add_option("--rate", run.rate_hz, "output sample rate (125 for the paper)")->type_name("HZ")->capture_default_str();
-  app.add_option("--amplitude", run.trajectory.amplitude, "paper/multisine amplitude")->type_name("RAD")->capture_default_str();
+  app.add_option("--amplitude", run.trajectory.amplitude, "paper/multisine/excite amplitude")->type_name("RAD")->capture_default_str();
   app.add_option("--frequency", run.trajectory.frequency, "paper sine frequency")->type_name("HZ")->capture_default_str();
   app.add_option("--blend", run.trajectory.blend, "quintic entry and exit blends")->type_name("S")->capture_default_str();
   app.add_option("--internal-rate", run.internal_rate_hz, "integration rate")->type_name("HZ")->capture_default_str();
@@ -117,7 +117,8 @@ int main(int argc, char** argv) {
     const sim::SimulationSection section = sim::read_simulation_section(profile, model);
     run.contacts.link_radius = section.link_radius;
     const double blends = run.trajectory.kind == sim::TrajectoryKind::paper ||
-                                  run.trajectory.kind == sim::TrajectoryKind::multisine
+                                  run.trajectory.kind == sim::TrajectoryKind::multisine ||
+                                  run.trajectory.kind == sim::TrajectoryKind::excite
                               ? 2 * run.trajectory.blend
                               : 0.0;
     run.trajectory.duration =

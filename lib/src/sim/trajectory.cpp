@@ -28,6 +28,7 @@ const char* trajectory_name(TrajectoryKind kind) {
   switch (kind) {
     case TrajectoryKind::paper: return "paper";
     case TrajectoryKind::multisine: return "multisine";
+    case TrajectoryKind::excite: return "excite";
     case TrajectoryKind::ptp: return "ptp";
     case TrajectoryKind::hold: return "hold";
   }
@@ -35,8 +36,8 @@ const char* trajectory_name(TrajectoryKind kind) {
 }
 
 bool parse_trajectory(const std::string& name, TrajectoryKind* kind) {
-  for (TrajectoryKind k : {TrajectoryKind::paper, TrajectoryKind::multisine, TrajectoryKind::ptp,
-                           TrajectoryKind::hold}) {
+  for (TrajectoryKind k : {TrajectoryKind::paper, TrajectoryKind::multisine, TrajectoryKind::excite,
+                           TrajectoryKind::ptp, TrajectoryKind::hold}) {
     if (name == trajectory_name(k)) {
       *kind = k;
       return true;
@@ -48,7 +49,7 @@ bool parse_trajectory(const std::string& name, TrajectoryKind* kind) {
 bool TrajectoryOptions::IsValid(std::string* why) const {
   auto positive = [](double x) { return std::isfinite(x) && x > 0; };
   if (!positive(duration)) return fail(why, "duration must be a positive number of seconds");
-  if (kind == TrajectoryKind::paper || kind == TrajectoryKind::multisine) {
+  if (kind == TrajectoryKind::paper || kind == TrajectoryKind::multisine || kind == TrajectoryKind::excite) {
     if (!positive(blend)) return fail(why, "blend must be a positive number of seconds");
     if (2 * blend > duration)
       return fail(why, "duration " + short_number(duration) + " s is shorter than the two blends of " +
@@ -57,7 +58,7 @@ bool TrajectoryOptions::IsValid(std::string* why) const {
   }
   if (kind == TrajectoryKind::paper && !positive(frequency))
     return fail(why, "frequency must be positive");
-  if (kind == TrajectoryKind::multisine) {
+  if (kind == TrajectoryKind::multisine || kind == TrajectoryKind::excite) {
     if (harmonics < 1 || harmonics > 100) return fail(why, "harmonics must be within 1..100");
     if (!positive(base_frequency)) return fail(why, "base frequency must be positive");
   }
@@ -145,25 +146,27 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
     case TrajectoryKind::multisine: {
       Random phases(derive_seed(seed, kPhaseStream));
       harmonics_.resize(n_);
-      const double period = 1.0 / options.base_frequency;
-      const int grid = 4000;
-      for (int j = 0; j < n_; ++j) {
-        auto& hs = harmonics_[j];
+      for (int j = 0; j < n_; ++j)
         for (int k = 1; k <= options.harmonics; ++k)
-          hs.push_back({1.0, kTwoPi * options.base_frequency * k, phases.uniform(0, kTwoPi)});
-        double peak = 0, peak_v = 0;
-        for (int s = 0; s < grid; ++s) {
-          double p = 0, v = 0, a = 0;
-          steady(j, period * s / grid, p, v, a);
-          peak = std::max(peak, std::abs(p));
-          peak_v = std::max(peak_v, std::abs(v));
+          harmonics_[j].push_back({1.0, kTwoPi * options.base_frequency * k, phases.uniform(0, kTwoPi)});
+      scale_harmonics(1.0 / options.base_frequency);
+      break;
+    }
+    case TrajectoryKind::excite: {
+      // Interleaved frequency sets: sinusoids of distinct frequencies are orthogonal over the
+      // common period, so every joint's motion (and its velocity and acceleration) is
+      // uncorrelated with every other joint's, which is what separates the parameters of
+      // different bodies. Schroeder's phases -pi i (i - 1) / H keep the peak of an equal-
+      // amplitude sum near sqrt(2 H) instead of H, so the scaling to the limits leaves more power.
+      harmonics_.resize(n_);
+      const int H = options.harmonics;
+      for (int j = 0; j < n_; ++j)
+        for (int i = 1; i <= H; ++i) {
+          const int k = j + 1 + n_ * (i - 1);
+          harmonics_[j].push_back(
+              {1.0, kTwoPi * options.base_frequency / n_ * k, -std::numbers::pi * i * (i - 1) / H});
         }
-        double room = std::min(home_[j] - lower_[j], upper_[j] - home_[j]);
-        double amplitude = std::min(options.amplitude, 0.8 * room);
-        double scale = amplitude / peak;
-        scale = std::min(scale, 0.5 * vmax_[j] / peak_v);
-        for (auto& h : hs) h.amplitude *= scale;
-      }
+      scale_harmonics(n_ / options.base_frequency);
       break;
     }
   }
@@ -186,8 +189,9 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
   steady_end_ = D - Tb;
 
   // The steady part is periodic: checking the blends and one period covers the whole motion.
-  const double period = options.kind == TrajectoryKind::paper ? 1.0 / options.frequency
-                                                              : 1.0 / options.base_frequency;
+  const double period = options.kind == TrajectoryKind::paper       ? 1.0 / options.frequency
+                        : options.kind == TrajectoryKind::multisine ? 1.0 / options.base_frequency
+                                                                    : n_ / options.base_frequency;
   Eigen::VectorXd q(n_), dq(n_), ddq(n_);
   auto check = [&](double t) {
     evaluate(t, q, dq, ddq);
@@ -203,6 +207,25 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
   for (double t = 0; t <= std::min(D, Tb + period); t += step) check(t);
   for (double t = std::max(0.0, D - Tb); t <= D; t += step) check(t);
   check(D);
+}
+
+void Trajectory::scale_harmonics(double period) {
+  const int grid = 4000 * std::max(1, n_);  // excite: n times the multisine's period
+  for (int j = 0; j < n_; ++j) {
+    auto& hs = harmonics_[j];
+    double peak = 0, peak_v = 0;
+    for (int s = 0; s < grid; ++s) {
+      double p = 0, v = 0, a = 0;
+      steady(j, period * s / grid, p, v, a);
+      peak = std::max(peak, std::abs(p));
+      peak_v = std::max(peak_v, std::abs(v));
+    }
+    const double room = std::min(home_[j] - lower_[j], upper_[j] - home_[j]);
+    const double amplitude = std::min(options_.amplitude, 0.8 * room);
+    double scale = amplitude / peak;
+    scale = std::min(scale, 0.5 * vmax_[j] / peak_v);
+    for (auto& h : hs) h.amplitude *= scale;
+  }
 }
 
 void Trajectory::steady(int joint, double tau, double& p, double& v, double& a) const {
@@ -254,6 +277,7 @@ void Trajectory::evaluate_forward(double t, Eigen::VectorXd& q, Eigen::VectorXd&
       return;
     case TrajectoryKind::paper:
     case TrajectoryKind::multisine:
+    case TrajectoryKind::excite:
       break;
   }
   const double Tb = options_.blend, D = options_.duration;

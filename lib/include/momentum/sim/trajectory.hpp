@@ -8,6 +8,13 @@
 //   multisine  per joint a sum of harmonics of a base frequency with random phases, scaled to a
 //              peak amplitude and to half the joint's velocity limit: rich excitation for
 //              friction and dynamics identification; same blends;
+//   excite     an excitation for inertial-parameter identification (dynfit): per joint j of n a
+//              sum of harmonics k = j + 1 + n i (i = 0..harmonics-1) of base_frequency / n
+//              (period n / base_frequency, the same frequency band as multisine), so no
+//              two joints share a frequency and the joints' motions are uncorrelated over a
+//              period; Schroeder phases (low crest factor, so more amplitude fits within the
+//              limits); scaled like multisine to 0.8 of the room to the nearer limit (at most
+//              amplitude) and half the velocity limit; same blends. Deterministic (no seed);
 //   ptp        quintic point-to-point moves (rest to rest) through random poses within the
 //              joint limits, with random dwell times at each pose;
 //   hold       every joint at rest at the home pose.
@@ -27,9 +34,9 @@
 
 namespace momentum::sim {
 
-enum class TrajectoryKind { paper, multisine, ptp, hold };
+enum class TrajectoryKind { paper, multisine, excite, ptp, hold };
 
-// "paper", "multisine", "ptp", "hold".
+// "paper", "multisine", "excite", "ptp", "hold".
 const char* trajectory_name(TrajectoryKind kind);
 // Inverse of trajectory_name; false when unknown.
 bool parse_trajectory(const std::string& name, TrajectoryKind* kind);
@@ -38,14 +45,15 @@ struct TrajectoryOptions {
   TrajectoryKind kind = TrajectoryKind::paper;
   // Total length, s (> 0). The trajectory holds its last pose after it.
   double duration = 60.0;
-  // Length of the quintic entry and exit blends (paper, multisine), s (> 0, <= duration / 2).
+  // Length of the quintic entry and exit blends (paper, multisine, excite), s (> 0, <= duration / 2).
   double blend = 1.0;
-  // paper: amplitude of each joint's sine, rad. multisine: peak amplitude before the limit and
+  // paper: amplitude of each joint's sine, rad. multisine, excite: peak amplitude before the limit and
   // velocity scaling, rad. > 0.
   double amplitude = 0.6;
   // paper: frequency of the sine, Hz (> 0).
   double frequency = 0.2;
   // multisine: harmonics k = 1..harmonics of base_frequency (Hz), random phases per joint.
+  // excite: harmonics per joint, interleaved across joints (see above).
   int harmonics = 5;
   double base_frequency = 0.1;
   // ptp: poses are drawn inside the limits shrunk by this fraction of the range at each end
@@ -82,7 +90,7 @@ class Trajectory {
   // Builds a trajectory for `model`'s joints starting at rest at or near `home` (nq). Random
   // draws (multisine phases, ptp poses and dwells) come from `seed`. Throws momentum::Error
   // when the options are invalid, home has the wrong size or lies outside the joint limits, or
-  // the motion would leave a joint's limits (paper and multisine: checked over the blends and
+  // the motion would leave a joint's limits (paper, multisine, excite: checked over the blends and
   // one full period).
   Trajectory(const TrajectoryOptions& options, const model::Model& model,
              const Eigen::VectorXd& home, std::uint64_t seed);
@@ -92,7 +100,7 @@ class Trajectory {
   void evaluate(double t, Eigen::VectorXd& q, Eigen::VectorXd& dq, Eigen::VectorXd& ddq);
 
   // The part of the motion where the arm is in its steady regime (after the entry blend and
-  // before the exit blend for paper and multisine), s. Contacts are placed in it.
+  // before the exit blend for paper, multisine and excite), s. Contacts are placed in it.
   double steady_begin() const { return steady_begin_; }
   double steady_end() const { return steady_end_; }
   const TrajectoryOptions& options() const { return options_; }
@@ -104,12 +112,14 @@ class Trajectory {
   void evaluate_forward(double t, Eigen::VectorXd& q, Eigen::VectorXd& dq, Eigen::VectorXd& ddq);
   void steady(int joint, double tau, double& p, double& v, double& a) const;
   void next_ptp_segment();
+  // multisine, excite: scales each joint's harmonics to the amplitude, limits and velocity limit.
+  void scale_harmonics(double period);
 
   TrajectoryOptions options_;
   int n_ = 0;
   Eigen::VectorXd home_, lower_, upper_, vmax_;
-  std::vector<std::vector<Harmonic>> harmonics_;  // paper, multisine: per joint
-  std::vector<Quintic> entry_, exit_;             // paper, multisine: per joint
+  std::vector<std::vector<Harmonic>> harmonics_;  // paper, multisine, excite: per joint
+  std::vector<Quintic> entry_, exit_;             // paper, multisine, excite: per joint
   // ptp: the current move of each joint, ending at segment_end_, then rest until next_start_.
   std::vector<Quintic> segment_;
   double segment_end_ = 0, next_start_ = 0;
