@@ -319,12 +319,7 @@ int main(int argc, char** argv) {
         if (destination == "-") {
           std::cout << document.dump(2) << "\n";
         } else {
-          // A profile written elsewhere keeps pointing at the same URDF.
-          const fs::path from = fs::absolute(fs::path(profile_name)).parent_path();
-          const fs::path to = fs::absolute(fs::path(destination)).parent_path();
-          if (from != to && document.contains("urdf"))
-            document["urdf"] = fs::relative(fs::absolute(profile.urdf), to).generic_string();
-          model::save_profile_atomically(document, destination);
+          model::save_profile_as(document, profile, destination);
         }
         report.outcome = "friction written to " + (destination == "-" ? std::string("stdout") : destination);
       }
@@ -334,14 +329,7 @@ int main(int argc, char** argv) {
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!tool.quiet()) std::fputs(fit::report_text(report).c_str(), stderr);
     if (!report_path.empty()) {
-      const std::string text = fit::report_json(report).dump(2) + "\n";
-      if (report_path == "-") {
-        std::cout << text;
-      } else {
-        std::ofstream file(report_path);
-        file << text;
-        if (!file.flush()) throw Error(report_path + ": cannot write the report");
-      }
+      cli::write_text(report_path, fit::report_json(report).dump(2) + "\n", "report");
     }
     if (!failure.empty()) throw Error(failure);
     return status;
