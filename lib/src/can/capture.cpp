@@ -23,7 +23,7 @@ bool CaptureOptions::IsValid(std::string* why) const {
 }
 
 CaptureWriter::CaptureWriter(const Database& db, std::vector<ColumnSource> sources, CaptureOptions options)
-    : db_(&db), sources_(std::move(sources)), options_(std::move(options)) {
+    : sources_(std::move(sources)), options_(std::move(options)) {
   std::string why;
   if (!options_.IsValid(&why)) throw Error(why);
   const Message* base = db.messages().data();

@@ -5,8 +5,6 @@
 #include <cmath>
 #include <cstring>
 
-#include "momentum/can/candump.hpp"
-#include "momentum/can/codec.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/writer.hpp"
 
@@ -18,34 +16,40 @@ constexpr double kFrameSpacing = 100e-6;
 }  // namespace
 
 CandumpOutput::CandumpOutput(const can::Database& db, const std::string& path, int nq, double period,
-                             std::string interface)
-    : db_(&db), interface_(std::move(interface)) {
+                             std::string interface) {
   const std::vector<std::string> columns = sample_columns(nq, true);
+  bool has_sync = false;
+  std::vector<can::ColumnSource> sources;
+  std::size_t messages = 0;
   for (const auto& message : db.messages()) {
     if (message.key == kSyncKey) {
-      sync_ = &message;
+      has_sync = true;
       continue;
     }
-    Source source{&message, {}};
     bool any = false;
-    for (const auto& signal : message.signals) {
+    for (std::size_t k = 0; k < message.signals.size(); ++k) {
+      const can::Signal& signal = message.signals[k];
       const auto it = std::find(columns.begin(), columns.end(), signal.name);
       if (it == columns.end()) {
-        source.value_index.push_back(-1);
+        if (!signal.is_multiplexer)
+          warn("dbc signal " + message.name + "." + signal.name + " matches no column; sent as raw 0");
         continue;
       }
-      source.value_index.push_back(static_cast<int>(it - columns.begin()));
+      sources.push_back({signal.name, &message, static_cast<int>(k)});
+      columns_.push_back(static_cast<std::size_t>(it - columns.begin()));
       any = true;
     }
     if (!any)
       throw Error("dbc message " + message.name + " has no signal named after a sample column (q1, dq1, i1, ...)");
-    for (std::size_t k = 0; k < message.signals.size(); ++k)
-      if (source.value_index[k] < 0 && !message.signals[k].is_multiplexer)
-        warn("dbc signal " + message.name + "." + message.signals[k].name + " matches no column; sent as 0");
-    sources_.push_back(std::move(source));
+    ++messages;
   }
-  if (!sync_) throw Error("the dbc has no SYNC message (id 0x080) to start each cycle");
-  spacing_ = std::min(kFrameSpacing, period / static_cast<double>(sources_.size() + 2));
+  if (!has_sync) throw Error("the dbc has no SYNC message (id 0x080) to start each cycle");
+  can::CaptureOptions options;
+  options.interface = std::move(interface);
+  options.sync_key = kSyncKey;
+  options.frame_spacing = std::min(kFrameSpacing, period / static_cast<double>(messages + 2));
+  writer_.emplace(db, std::move(sources), std::move(options));
+  values_.resize(columns_.size());
   if (path.empty() || path == "-") {
     file_ = stdout;
     name_ = "<stdout>";
@@ -61,35 +65,19 @@ CandumpOutput::~CandumpOutput() {
   if (owns_ && file_) std::fclose(file_);
 }
 
-void CandumpOutput::put(const char* text, std::size_t size) {
-  if (std::fwrite(text, 1, size, file_) != size) {
+void CandumpOutput::put(const std::string& text) {
+  if (std::fwrite(text.data(), 1, text.size(), file_) != text.size()) {
     if (errno == EPIPE) throw stream::BrokenPipe();
     throw Error(name_ + ": write failed: " + std::strerror(errno));
   }
 }
 
 void CandumpOutput::write(const Sample& s) {
-  const auto n = s.q.size();
-  values_.assign(1, s.t);
-  for (const Eigen::VectorXd* v : {&s.q, &s.dq, &s.i, &s.tau_f_true, &s.tau_c_true})
-    for (Eigen::Index j = 0; j < n; ++j) values_.push_back((*v)[j]);
-
-  char line[can::kMaxLogLine];
-  auto emit = [&](const can::Message& message, const std::vector<int>* indices, double t) {
-    frame_.time_ns = std::llround(t * 1e9);
-    frame_.has_time = true;
-    signal_values_.assign(message.signals.size(), 0.0);
-    if (indices)
-      for (std::size_t k = 0; k < indices->size(); ++k)
-        if ((*indices)[k] >= 0) signal_values_[k] = values_[static_cast<std::size_t>((*indices)[k])];
-    const can::EncodeSummary summary = can::encode(message, signal_values_.data(), frame_);
-    saturated_ += summary.saturated;
-    put(line, can::format_log_line(frame_, interface_, line));
-    ++frames_;
-  };
-  emit(*sync_, nullptr, s.t);
-  for (std::size_t k = 0; k < sources_.size(); ++k)
-    emit(*sources_[k].message, &sources_[k].value_index, s.t + static_cast<double>(k + 1) * spacing_);
+  sample_row(s, true, row_);
+  for (std::size_t c = 0; c < columns_.size(); ++c) values_[c] = row_[columns_[c]];
+  text_.clear();
+  writer_->write_cycle(s.t, values_.data(), text_);
+  put(text_);
 }
 
 void CandumpOutput::close() {

@@ -57,7 +57,6 @@ class CaptureWriter {
     std::uint64_t selector_raw = 0;  // its raw value for this group
     std::vector<std::pair<int, std::size_t>> signals;  // (signal index, source column)
   };
-  const Database* db_;
   std::vector<ColumnSource> sources_;
   CaptureOptions options_;
   std::vector<Group> groups_;

@@ -6,17 +6,19 @@
 // A cycle: the SYNC frame (the DBC message with id 0x080, no payload signals needed) at the
 // sample's time, then every other message of the DBC in file order, each with its signals
 // encoded from the sample's columns of the same name (t, q<j>, dq<j>, i<j>, tau_f_true<j>,
-// tau_c_true<j>) by the CAN library's encoder. Frames are spaced by min(100 us, period /
+// tau_c_true<j>) by the CAN library's capture writer (can::CaptureWriter, the same encoder
+// mo-can2csv's decoder is tested against). Frames are spaced by min(100 us, period /
 // (frames + 1)) after the SYNC, like drives answering in turn on a 1 Mbit/s bus.
 #pragma once
 
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "momentum/can/capture.hpp"
 #include "momentum/can/dbc.hpp"
-#include "momentum/can/frame.hpp"
 #include "momentum/sim/run.hpp"
 
 namespace momentum::sim {
@@ -26,7 +28,7 @@ class CandumpOutput {
   // `path`: output file, "-" or "" for stdout. `nq`: joints. `period`: nominal sample period,
   // s. Throws momentum::Error when the DBC has no SYNC message (id 0x080), a non-SYNC message
   // has no signal named after a sample column, or the file cannot be created. Signals of a
-  // used message that match no column are encoded as 0 and reported once through
+  // used message that match no column carry raw 0 and are reported once through
   // momentum::warn.
   CandumpOutput(const can::Database& db, const std::string& path, int nq, double period,
                 std::string interface = "can0");
@@ -41,27 +43,19 @@ class CandumpOutput {
   void close();
 
   // Frames written, and values clamped to their signal's range by the encoder.
-  std::uint64_t frames() const { return frames_; }
-  std::uint64_t saturated() const { return saturated_; }
+  std::uint64_t frames() const { return writer_->stats().frames; }
+  std::uint64_t saturated() const { return writer_->stats().saturated; }
 
  private:
-  struct Source {
-    const can::Message* message;
-    std::vector<int> value_index;  // per signal: index into the sample values, -1: zero
-  };
-  void put(const char* text, std::size_t size);
+  void put(const std::string& text);
 
-  const can::Database* db_;
-  const can::Message* sync_ = nullptr;
-  std::vector<Source> sources_;
-  std::string interface_;
-  double spacing_ = 0;
+  std::vector<std::size_t> columns_;  // per capture source: its index in sample_columns()
+  std::optional<can::CaptureWriter> writer_;
   std::FILE* file_ = nullptr;
   bool owns_ = false;
   std::string name_;
-  std::vector<double> values_, signal_values_;
-  can::Frame frame_;
-  std::uint64_t frames_ = 0, saturated_ = 0;
+  std::vector<double> row_, values_;
+  std::string text_;
 };
 
 }  // namespace momentum::sim
