@@ -43,8 +43,11 @@ void install(int signo, void (*handler)(int)) {
 
 // Totals over every input, for --stats.
 struct Totals {
-  std::uint64_t frames = 0, bad_lines = 0, lost_frames = 0, bad_records = 0;
+  std::uint64_t frames = 0, bad_lines = 0, lost_frames = 0, bad_records = 0, filtered = 0;
 };
+
+// Thrown out of a read when SIGINT or SIGTERM arrived: the capture ends like at end of input.
+struct Stopped {};
 
 }  // namespace
 
@@ -107,10 +110,12 @@ int main(int argc, char** argv) {
 
     auto print_stats = [&] {
       std::uint64_t bad_lines = totals.bad_lines, lost = totals.lost_frames, frames = totals.frames;
+      std::uint64_t filtered = totals.filtered;
       if (text) {
         bad_lines += text->stats().bad_lines;
         lost += text->stats().lost_frames;
         frames += text->stats().frames;
+        filtered += text->stats().filtered;
       }
       if (socket) {
         lost += socket->stats().lost_frames;
@@ -127,8 +132,9 @@ int main(int argc, char** argv) {
         out += line;
         std::snprintf(line, sizeof line,
                       "mo-can2csv: stats: bad lines %" PRIu64 ", lost frames %" PRIu64 ", bad records %" PRIu64
-                      ", frames before the first cycle %" PRIu64 "\n",
-                      bad_lines, lost, totals.bad_records + (socket ? socket->stats().bad_records : 0), s.before_first_cycle);
+                      ", frames before the first cycle %" PRIu64 ", filtered (--bus) %" PRIu64 "\n",
+                      bad_lines, lost, totals.bad_records + (socket ? socket->stats().bad_records : 0), s.before_first_cycle,
+                      filtered);
         out += line;
         std::snprintf(line, sizeof line,
                       "mo-can2csv: stats: cycles complete %" PRIu64 ", incomplete %" PRIu64 ", values missing %" PRIu64
@@ -140,8 +146,9 @@ int main(int argc, char** argv) {
         const can::SignalRowCounts& c = long_writer->counts();
         std::snprintf(line, sizeof line,
                       "mo-can2csv: stats: frames read %" PRIu64 ", decoded %" PRIu64 ", unknown ids %" PRIu64
-                      ", short %" PRIu64 ", bad lines %" PRIu64 ", lost frames %" PRIu64 "\n",
-                      frames, c.decoded, c.unknown_ids, c.short_frames, bad_lines, lost);
+                      ", short %" PRIu64 ", bad lines %" PRIu64 ", lost frames %" PRIu64 ", filtered (--bus) %" PRIu64
+                      "\n",
+                      frames, c.decoded, c.unknown_ids, c.short_frames, bad_lines, lost, filtered);
         out += line;
       }
       std::fwrite(out.data(), 1, out.size(), stderr);
@@ -152,8 +159,13 @@ int main(int argc, char** argv) {
         g_stats_requested = 0;
         print_stats();
       }
+      if (g_stop_requested) throw Stopped{};
     };
     install(SIGUSR1, on_usr1);
+    // Ctrl-C on `candump -L can0 | mo-can2csv` reaches both: end like at end of input, with
+    // the last cycle written and --stats printed.
+    install(SIGINT, on_stop);
+    install(SIGTERM, on_stop);
 
     can::CandumpOptions text_options;
     text_options.strict = strict;
@@ -164,6 +176,7 @@ int main(int argc, char** argv) {
         totals.bad_lines += text->stats().bad_lines;
         totals.lost_frames += text->stats().lost_frames;
         totals.frames += text->stats().frames;
+        totals.filtered += text->stats().filtered;
         text.reset();
       }
       if (next_input >= inputs.size()) return false;
@@ -177,29 +190,31 @@ int main(int argc, char** argv) {
     if (!interface.empty()) {
       socket = std::make_unique<can::SocketCanReader>(can::open_can_socket(interface), true, interface);
       live = true;
-      install(SIGINT, on_stop);
-      install(SIGTERM, on_stop);
     } else {
       open_next_text();
     }
 
     bool warned_untimed = false;
-    // The next frame from whichever source; false at the end (or on SIGINT/SIGTERM when live).
+    // The next frame from whichever source; false at the end or on SIGINT/SIGTERM.
     auto next_frame = [&](can::Frame& frame) -> bool {
-      for (;;) {
-        if (g_stop_requested) return false;
-        if (socket) {
-          const auto status = socket->next(frame);
-          if (status == can::SocketCanReader::Status::frame) return true;
-          if (status == can::SocketCanReader::Status::end) return false;
-          service_signals();
-          continue;
+      try {
+        for (;;) {
+          if (g_stop_requested) return false;
+          if (socket) {
+            const auto status = socket->next(frame);
+            if (status == can::SocketCanReader::Status::frame) return true;
+            if (status == can::SocketCanReader::Status::end) return false;
+            service_signals();
+            continue;
+          }
+          if (text->next(frame)) {
+            service_signals();
+            return true;
+          }
+          if (!open_next_text()) return false;
         }
-        if (text->next(frame)) {
-          service_signals();
-          return true;
-        }
-        if (!open_next_text()) return false;
+      } catch (const Stopped&) {
+        return false;
       }
     };
 

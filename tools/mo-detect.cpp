@@ -103,7 +103,17 @@ int main(int argc, char** argv) {
         reader_options.display_name = path;
       }
       detect::InterruptWatch watch;
-      auto in = tool.open_input(open_path, reader_options);
+      // A live input may stay silent before its header too (a capture that has not started).
+      reader_options.before_read = [poll_fd, &watch] {
+        if (poll_fd >= 0 && !watch.wait_readable(poll_fd)) throw detect::Interrupted();
+      };
+      std::unique_ptr<stream::Reader> in;
+      try {
+        in = tool.open_input(open_path, reader_options);
+      } catch (const detect::Interrupted&) {
+        if (own_fd >= 0) ::close(own_fd);
+        return kNoCollision;
+      }
 
       const std::size_t it = in->require("t");
       detect::Signal signal = detect::Signal::mu;

@@ -235,7 +235,7 @@ TEST(CandumpLines, DropcountErrorDetailsAndBlanks) {
   EXPECT_EQ(parse_candump_line("DROPCOUNT: dropped 1 CAN frame on 'can0' socket (total drops 1)", f, info),
             LineKind::dropcount);
   EXPECT_EQ(info.dropped, 1U);
-  EXPECT_EQ(parse_candump_line("\tcontroller-problem{rx-error-warning}", f, info), LineKind::skip);
+  EXPECT_EQ(parse_candump_line("\tcontroller-problem{rx-error-warning}", f, info), LineKind::detail);
   EXPECT_EQ(parse_candump_line("", f, info), LineKind::skip);
   EXPECT_EQ(parse_candump_line("   \r", f, info), LineKind::skip);
 }
@@ -296,6 +296,28 @@ TEST(CandumpReader, CountsReportsAndSkipsBadLines) {
   ASSERT_EQ(warnings.messages.size(), 2U);
   EXPECT_EQ(warnings.messages[0], "x.log:2: not candump text");
   EXPECT_EQ(warnings.messages[1], "x.log:5: odd number of hex digits in data");
+}
+
+TEST(CandumpReader, TabLinesAreDetailsOnlyBelowAnErrorFrame) {
+  // candump -e prints the decoded error below an error frame, indented by a tab; anywhere
+  // else a tab-indented line is not candump text and must not vanish unreported.
+  Warnings warnings;
+  auto reader = CandumpReader::from_text(
+      "(1.000000) can0 20000004#0004000000000000\n"
+      "\tcontroller-problem{rx-error-warning}\n"
+      "\terror-counter-tx-rx{{0}{97}}\n"
+      "(2.000000) can0 123#11\n"
+      "\tgarbage\n",
+      options(false, TimestampMode::automatic, "", "e.log"));
+  Frame f;
+  ASSERT_TRUE(reader->next(f));
+  EXPECT_TRUE(f.error);
+  ASSERT_TRUE(reader->next(f));
+  EXPECT_EQ(f.data[0], 0x11);
+  EXPECT_FALSE(reader->next(f));
+  EXPECT_EQ(reader->stats().bad_lines, 1U);
+  ASSERT_EQ(warnings.messages.size(), 1U);
+  EXPECT_EQ(warnings.messages[0], "e.log:5: tab-indented line not below an error frame (only candump -e details are)");
 }
 
 TEST(CandumpReader, StrictStopsAtFirstBadLine) {

@@ -304,6 +304,39 @@ TEST(Stats, CountsGapsBackwardsDuplicatesFrozenAndNaN) {
   EXPECT_EQ(s.nan_per_column[1], 1u);
 }
 
+TEST(Stats, AGapJustAboveTheLimitIsCountedWhereItIsListed) {
+  // 1 ms steps and one of 1.502 ms: above 1.5 periods, in the histogram bin that straddles
+  // the limit. Once with few distinct steps (exact counts), once with thousands (jittered
+  // by less than 5%, so the histogram decides), and the count must agree with the places.
+  for (bool jitter : {false, true}) {
+    ms::StreamStats stats({"t"});
+    double t = 0;
+    int line = 2;
+    for (int i = 0; i < 6000; ++i) {
+      t += i == 3000 ? 1.502e-3 : 1e-3 * (jitter ? 1 + 0.04 * std::sin(0.37 * i) : 1.0);
+      stats.add(&t, "f:" + std::to_string(line++));
+    }
+    const auto s = stats.summary();
+    EXPECT_EQ(s.gaps.count, 1u) << "jitter " << jitter;
+    ASSERT_EQ(s.gaps.first.size(), 1u);
+    EXPECT_EQ(s.gaps.first.front(), "f:3002");
+    EXPECT_EQ(s.irregular.count, 0u) << "jitter " << jitter;  // 4% is within the 10% band
+  }
+}
+
+TEST(Stats, IrregularStepsAreCountedButGapsAreNot) {
+  ms::StreamStats stats({"t"});
+  double t = 0;
+  for (int i = 0; i < 100; ++i) {
+    // 90 steps of 1 ms, 5 of 0.8 ms, 3 of 1.3 ms, 2 of 3 ms (gaps).
+    t += i < 90 ? 1e-3 : i < 95 ? 0.8e-3 : i < 98 ? 1.3e-3 : 3e-3;
+    stats.add(&t, "x");
+  }
+  const auto s = stats.summary();
+  EXPECT_EQ(s.irregular.count, 8u);
+  EXPECT_EQ(s.gaps.count, 2u);
+}
+
 TEST(Repair, AnEarlyRowIsDroppedNotTheRowsItOvertook) {
   std::vector<double> kept;
   std::vector<std::string> dropped;

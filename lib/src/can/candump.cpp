@@ -420,7 +420,7 @@ LineKind parse_candump_line(std::string_view line, Frame& frame, ParsedLine& inf
   const char* p = line.data();
   const char* end = p + line.size();
   while (end > p && (end[-1] == '\r' || end[-1] == ' ' || end[-1] == '\t' || end[-1] == '\n')) --end;
-  if (p < end && *p == '\t') return info.kind = LineKind::skip;  // -e error-frame details
+  if (p < end && *p == '\t') return info.kind = LineKind::detail;
   while (p < end && is_space(*p)) ++p;
   if (p == end || *p == '#') return info.kind = LineKind::skip;
   const char* error = "";
@@ -610,7 +610,13 @@ bool CandumpReader::parse_next(Frame& frame, ParsedLine& info) {
   std::string_view line;
   while (next_line(line)) {
     ++stats_.lines;
-    switch (parse_candump_line(line, frame, info)) {
+    const LineKind kind = parse_candump_line(line, frame, info);
+    if (kind == LineKind::detail && !after_error_frame_) {
+      report_bad("tab-indented line not below an error frame (only candump -e details are)");
+      continue;
+    }
+    if (kind != LineKind::detail && kind != LineKind::skip) after_error_frame_ = kind == LineKind::frame && frame.error;
+    switch (kind) {
       case LineKind::frame:
         if (!options_.interface.empty() && info.interface != options_.interface) {
           ++stats_.filtered;
@@ -623,6 +629,7 @@ bool CandumpReader::parse_next(Frame& frame, ParsedLine& info) {
         stats_.lost_frames += info.dropped;
         continue;
       case LineKind::skip:
+      case LineKind::detail:
         continue;
       case LineKind::bad:
         report_bad(info.error);

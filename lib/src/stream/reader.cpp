@@ -138,6 +138,7 @@ class CsvReader final : public Reader {
     name_ = std::move(display);
     strict_ = options.strict;
     encoding_ = Encoding::csv;
+    before_read_ = options.before_read;
     in_->before_read = &before_read_;
     std::string_view line;
     bool have_line = false;
@@ -293,6 +294,7 @@ class BinaryReader final : public Reader {
     name_ = std::move(display);
     strict_ = options.strict;
     encoding_ = Encoding::binary;
+    before_read_ = options.before_read;
     in_->before_read = &before_read_;
     if (!in_->want(sizeof kBinaryMagic) || std::memcmp(in_->data(), kBinaryMagic, sizeof kBinaryMagic) != 0)
       throw Error(name() + ": byte 0: wrong magic (not a momentum binary stream)");
@@ -397,6 +399,7 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, ReaderOptions opti
   }
   bool live = is_live(fd);
   auto input = std::make_unique<Input>(fd, !from_stdin, name);
+  input->before_read = &options.before_read;
   std::unique_ptr<Reader> reader;
   if (!input->want(1)) throw Error(name + ": empty input");
   if (static_cast<unsigned char>(input->data()[0]) == static_cast<unsigned char>(kBinaryMagic[0])) {

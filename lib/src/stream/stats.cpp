@@ -100,14 +100,37 @@ StreamStats::Summary StreamStats::summary() const {
     }
   }
   out.dt_median = std::clamp(out.dt_median, out.dt_min, out.dt_max);
-  // Gaps: every step above 1.5 median. The count comes from the histogram, the places from
-  // the kept steps (which are the first ones, in order).
-  double limit = 1.5 * out.dt_median;
-  double limit_bin = (std::log10(limit) - kMinDecade) * kBinsPerDecade;
-  for (std::size_t i = static_cast<std::size_t>(std::max(0.0, std::ceil(limit_bin))); i < histogram_.size(); ++i)
-    out.gaps.count += histogram_[i];
-  for (const auto& [dt, where] : big_steps_)
-    if (dt > limit && out.gaps.first.size() < 5) out.gaps.first.push_back(where);
+  // Gaps: every step above 1.5 median. The count is exact from the distinct steps while they
+  // fit in memory (a log at a fixed rate has few), else from the histogram's bins wholly above
+  // the limit; the places come from the kept steps (which are the first ones, in order).
+  const double limit = 1.5 * out.dt_median;
+  if (!exact_overflow_) {
+    for (const auto& [dt, count] : exact_steps_)
+      if (dt > limit) out.gaps.count += count;
+  } else {
+    const double limit_bin = (std::log10(limit) - kMinDecade) * kBinsPerDecade;
+    for (std::size_t i = static_cast<std::size_t>(std::max(0.0, std::ceil(limit_bin))); i < histogram_.size(); ++i)
+      out.gaps.count += histogram_[i];
+  }
+  // Irregular steps, from the same counts: exact, or the bins wholly outside the +-10% band.
+  const double low = 0.9 * out.dt_median, high = 1.1 * out.dt_median;
+  if (!exact_overflow_) {
+    for (const auto& [dt, count] : exact_steps_)
+      if (dt < low || (dt > high && dt <= limit)) out.irregular.count += count;
+  } else {
+    auto bin_of = [](double dt) { return (std::log10(dt) - kMinDecade) * kBinsPerDecade; };
+    for (std::size_t i = 0; i < histogram_.size(); ++i) {
+      const double lo = static_cast<double>(i), hi = lo + 1;
+      if (hi <= bin_of(low) || (lo >= bin_of(high) && hi <= bin_of(limit))) out.irregular.count += histogram_[i];
+    }
+  }
+  std::uint64_t listed = 0;
+  for (const auto& [dt, where] : big_steps_) {
+    if (!(dt > limit)) continue;
+    ++listed;
+    if (out.gaps.first.size() < 5) out.gaps.first.push_back(where);
+  }
+  out.gaps.count = std::max(out.gaps.count, listed);
   return out;
 }
 

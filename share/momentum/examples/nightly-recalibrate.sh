@@ -83,7 +83,8 @@ if [[ -n $logs_dir ]]; then
   logs+=("$logs_dir"/*.csv "$logs_dir"/*.bin)
   shopt -u nullglob
 fi
-mapfile -t logs < <(printf '%s\n' "${logs[@]}" | sort)
+# Sorted; no logs at all stays an empty list (printf would make one empty name of it).
+((${#logs[@]} == 0)) || mapfile -t logs < <(printf '%s\n' "${logs[@]}" | sort)
 
 stamp() { date -u +%Y-%m-%dT%H:%M:%SZ; }
 say() { echo "$(stamp) $*" >> "$log_file"; [[ -t 2 ]] && echo "$*" >&2; return 0; }

@@ -38,7 +38,8 @@ TimestampMode parse_timestamp_mode(std::string_view name);
 enum class LineKind : std::uint8_t {
   frame,      // a CAN frame (possibly an error frame)
   dropcount,  // a DROPCOUNT line; ParsedLine::dropped frames were lost
-  skip,       // blank line, '#' comment, or a -e error-frame detail line (starts with a tab)
+  skip,       // blank line or '#' comment
+  detail,     // a line that starts with a tab: candump -e's details of the error frame above
   bad,        // not candump text; ParsedLine::error says why
 };
 
@@ -148,6 +149,7 @@ class CandumpReader {
   std::uint64_t line_no_ = 0;
   std::uint64_t frame_line_ = 0;
   bool discarding_long_line_ = false;
+  bool after_error_frame_ = false;  // detail lines may follow (candump -e)
   std::int64_t running_ns_ = 0;
   CandumpStats stats_;
   // Frames held back while telling -t d from -t z (at most kProbe).

@@ -23,6 +23,10 @@ struct ReaderOptions {
   std::vector<std::string> names;
   // Display name of the input in messages; defaults to the path, or "<stdin>" for "-".
   std::string display_name;
+  // Called before every read of the input from the first one, the header's included, until
+  // Reader::before_read() replaces it: a live tool waits there for a signal, and may throw to
+  // stop waiting (the exception leaves open()).
+  std::function<void()> before_read;
 };
 
 class Reader {

@@ -31,6 +31,9 @@ class StreamStats {
     // distinct steps, else from a log-spaced histogram (within 0.12%).
     double dt_min = 0, dt_median = 0, dt_max = 0;
     Anomaly gaps;             // dt > 1.5 median dt: lost samples
+    // Steps more than 10% off the median that are not gaps (sampling jitter, a changed rate).
+    // Counted only: which ones they are is known only once the median is.
+    Anomaly irregular;
     Anomaly backwards;        // dt < 0: rows written early
     Anomaly repeated_time;    // dt == 0 with different values
     Anomaly duplicates;       // a row equal to the previous one in every column
