@@ -1,6 +1,5 @@
 // mo-calibrate: per-joint collision thresholds from collision-free motion, into the profile.
 #include <cstdio>
-#include <filesystem>
 #include <optional>
 
 #include "momentum/cli/tool.hpp"

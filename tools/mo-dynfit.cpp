@@ -3,8 +3,6 @@
 // the data determine.
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <iostream>
 
 #include "momentum/cli/tool.hpp"
@@ -17,7 +15,6 @@
 #include "momentum/stream/error.hpp"
 
 using namespace momentum;
-namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-dynfit", "Identify corrections to the URDF's inertial parameters from collision-free logs.");
@@ -113,27 +110,13 @@ int main(int argc, char** argv) {
       if (destination == "-") {
         std::cout << document.dump(2) << "\n";
       } else {
-        // A profile written elsewhere keeps pointing at the same URDF.
-        const fs::path from = fs::absolute(fs::path(profile_name)).parent_path();
-        const fs::path to = fs::absolute(fs::path(destination)).parent_path();
-        if (from != to && document.contains("urdf"))
-          document["urdf"] = fs::relative(fs::absolute(profile.urdf), to).generic_string();
-        model::save_profile_atomically(document, destination);
+        model::save_profile_as(document, profile, destination);
       }
       report.outcome = "corrections written to " + (destination == "-" ? std::string("stdout") : destination);
     }
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!tool.quiet()) std::fputs(dynfit::report_text(report).c_str(), stderr);
-    if (!report_path.empty()) {
-      const std::string text = dynfit::report_json(report).dump(2) + "\n";
-      if (report_path == "-") {
-        std::cout << text;
-      } else {
-        std::ofstream file(report_path);
-        file << text;
-        if (!file.flush()) throw Error(report_path + ": cannot write the report");
-      }
-    }
+    if (!report_path.empty()) cli::write_text(report_path, dynfit::report_json(report).dump(2) + "\n", "report");
     if (!failure.empty()) throw Error(failure);
     return status;
   });

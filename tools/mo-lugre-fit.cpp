@@ -3,8 +3,6 @@
 // the robot profile and report what the data say about every parameter.
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <optional>
@@ -20,7 +18,6 @@
 #include "momentum/stream/error.hpp"
 
 using namespace momentum;
-namespace fs = std::filesystem;
 
 namespace {
 

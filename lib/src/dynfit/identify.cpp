@@ -1,10 +1,15 @@
 #include "momentum/dynfit/identify.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/QR>
 
 #include "momentum/dynfit/regressor.hpp"
 #include "momentum/model/inertial_corrections.hpp"
@@ -56,20 +61,79 @@ Eigen::Matrix4d pseudo_inertia(const model::StandardParameters& t) {
   return J;
 }
 
-model::StandardParameters from_pseudo_inertia(const Eigen::Matrix4d& J) {
-  const Eigen::Matrix3d sigma = J.topLeftCorner<3, 3>();
-  const Eigen::Matrix3d origin = sigma.trace() * Eigen::Matrix3d::Identity() - sigma;
-  model::StandardParameters t;
-  t << J(3, 3), J(0, 3), J(1, 3), J(2, 3), origin(0, 0), origin(0, 1), origin(0, 2), origin(1, 1),
-      origin(1, 2), origin(2, 2);
-  return t;
-}
-
-// Nearest (Frobenius norm of J) parameters whose pseudo-inertia has eigenvalues >= floor.
-model::StandardParameters project_physical(const model::StandardParameters& t, double floor) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(pseudo_inertia(t));
-  const Eigen::Vector4d l = eig.eigenvalues().cwiseMax(floor);
-  return from_pseudo_inertia(eig.eigenvectors() * l.asDiagonal() * eig.eigenvectors().transpose());
+// argmin (d - d_hat)^T Q (d - d_hat) over corrections d whose bodies have pseudo-inertias J_k
+// with eigenvalues >= floors[k]; Q symmetric positive definite. A convex problem (J is linear
+// in the parameters), solved by the barrier method (Boyd and Vandenberghe, ch. 11): Newton's
+// method on f - t sum_k log det(J_k - floor_k E) for t falling tenfold to a duality gap far
+// below f, from the eigenvalue-clamped d_hat. Newton copes with Q's spread (the data's
+// information next to a weak pull), and every iterate is strictly physical.
+Eigen::VectorXd nearest_physical(const Eigen::VectorXd& theta_nominal, const Eigen::VectorXd& d_hat,
+                                 const Eigen::MatrixXd& Q, const Eigen::VectorXd& floors, int* newton_steps) {
+  const Eigen::Index p = d_hat.size();
+  const int n = static_cast<int>(p / kBodyParameters);
+  std::array<Eigen::Matrix4d, kBodyParameters> A;  // dJ / d theta_j, the same for every body
+  for (int j = 0; j < kBodyParameters; ++j) A[static_cast<std::size_t>(j)] = pseudo_inertia(model::StandardParameters::Unit(j));
+  auto slack = [&](const Eigen::VectorXd& d, int k) {  // J_k - floor_k E
+    const model::StandardParameters theta = theta_nominal.segment<kBodyParameters>(kBodyParameters * k) +
+                                            d.segment<kBodyParameters>(kBodyParameters * k);
+    return Eigen::Matrix4d(pseudo_inertia(theta) - floors[k] * Eigen::Matrix4d::Identity());
+  };
+  // f_t(d), or +inf outside the domain.
+  auto value = [&](const Eigen::VectorXd& d, double t) {
+    double barrier = 0;
+    for (int k = 0; k < n; ++k) {
+      const Eigen::LLT<Eigen::Matrix4d> llt(slack(d, k));
+      if (llt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+      barrier += 2 * llt.matrixLLT().diagonal().array().log().sum();
+    }
+    const Eigen::VectorXd e = d - d_hat;
+    return e.dot(Q * e) - t * barrier;
+  };
+  // Start strictly inside: each body's J with eigenvalues raised to at least twice its floor.
+  Eigen::VectorXd d = d_hat;
+  for (int k = 0; k < n; ++k) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(slack(d_hat, k) + floors[k] * Eigen::Matrix4d::Identity());
+    const Eigen::Vector4d l = eig.eigenvalues().cwiseMax(2 * floors[k]);
+    const Eigen::Matrix4d J = eig.eigenvectors() * l.asDiagonal() * eig.eigenvectors().transpose();
+    // theta from J: the inverse of the linear map, on the basis A.
+    Eigen::Matrix<double, 16, kBodyParameters> basis;
+    for (int j = 0; j < kBodyParameters; ++j) basis.col(j) = Eigen::Map<const Eigen::Matrix<double, 16, 1>>(A[static_cast<std::size_t>(j)].data());
+    const Eigen::Matrix<double, kBodyParameters, 1> theta =
+        basis.colPivHouseholderQr().solve(Eigen::Map<const Eigen::Matrix<double, 16, 1>>(J.data()));
+    d.segment<kBodyParameters>(kBodyParameters * k) = theta - theta_nominal.segment<kBodyParameters>(kBodyParameters * k);
+  }
+  const Eigen::VectorXd e0 = d - d_hat;
+  double t = std::max(e0.dot(Q * e0), 1e-300) / (4.0 * n);
+  const double t_final = 1e-12 * t;
+  int steps = 0;
+  for (; t >= t_final; t *= 0.1) {
+    for (int inner = 0; inner < 100; ++inner) {
+      Eigen::VectorXd g = 2 * Q * (d - d_hat);
+      Eigen::MatrixXd H = 2 * Q;
+      for (int k = 0; k < n; ++k) {
+        const Eigen::Matrix4d X_inv = slack(d, k).inverse();
+        std::array<Eigen::Matrix4d, kBodyParameters> XA;
+        for (int j = 0; j < kBodyParameters; ++j) XA[static_cast<std::size_t>(j)] = X_inv * A[static_cast<std::size_t>(j)];
+        for (int i = 0; i < kBodyParameters; ++i) {
+          g[kBodyParameters * k + i] -= t * XA[static_cast<std::size_t>(i)].trace();
+          for (int j = 0; j < kBodyParameters; ++j)
+            H(kBodyParameters * k + i, kBodyParameters * k + j) +=
+                t * (XA[static_cast<std::size_t>(i)] * XA[static_cast<std::size_t>(j)]).trace();
+        }
+      }
+      const Eigen::VectorXd step = -H.ldlt().solve(g);
+      const double decrement = -g.dot(step);  // Newton decrement squared
+      if (!(decrement > 1e-14 * std::max(1e-300, std::abs(value(d, t))) + 1e-300)) break;
+      ++steps;
+      const double f0 = value(d, t);
+      double alpha = 1;
+      while (alpha > 1e-12 && !(value(d + alpha * step, t) <= f0 - 0.25 * alpha * decrement)) alpha *= 0.5;
+      if (alpha <= 1e-12) break;
+      d += alpha * step;
+    }
+  }
+  if (newton_steps) *newton_steps = steps;
+  return d;
 }
 
 double smallest_pseudo_eigenvalue(const model::StandardParameters& t) {
@@ -342,6 +406,7 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
     inv_lambda[r] = 1.0 / lambda[kept[static_cast<std::size_t>(r)]];
   }
   const Eigen::MatrixXd H_inv = V * inv_lambda.asDiagonal() * V.transpose();
+  const Eigen::VectorXd retained = inv_lambda.cwiseInverse();  // the identified eigenvalues
   // The estimator is linear in the right-hand side: delta = L_i b_i + L_f b_f.
   const Eigen::MatrixXd Si = scale.cwiseInverse().asDiagonal();
   const Eigen::MatrixXd solve_i = Si * H_inv * Si;  // maps the Schur right-hand side to delta
@@ -420,11 +485,13 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
       }
     }
   }
-  // Physical consistency: where the minimum-norm correction is not physical, move along the
-  // directions the data do not determine. Alternating projections between the affine set of
-  // corrections with the identified combinations and the convex set of physical bodies
-  // (pseudo-inertia positive definite, with a margin of 1e-3 of the nominal's smallest
-  // eigenvalue); both contain the truth when the model is right.
+  // Physical consistency. Where the minimum-norm correction is not physical, take the physical
+  // correction nearest to it in the metric of the data: the truncated information matrix
+  // (identified combinations cost what the data say they cost), plus a weak pull toward the
+  // minimum-norm correction (mu, far below the weakest identified direction) so that what the
+  // data do not determine moves only as much as physics needs. A convex problem (the physical
+  // set is convex in the pseudo-inertia J, which is linear in theta), solved by ADMM with J as
+  // the split variable, where the projection is an eigenvalue clamp per body.
   auto physical = [&](const Eigen::VectorXd& delta, std::vector<int>* bad) {
     bool ok = true;
     for (int k = 0; k < n; ++k) {
@@ -441,59 +508,36 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
   std::vector<int> unphysical;
   if (!physical(s.delta, &unphysical)) {
     Eigen::VectorXd floors(n);
-    for (int k = 0; k < n; ++k) {
+    for (int k = 0; k < n; ++k)
       floors[k] = 1e-3 * smallest_pseudo_eigenvalue(theta_nominal_.segment<kBodyParameters>(body_offset(k)));
-    }
-    Eigen::VectorXd target_sel(pi);  // identified combinations in scaled coordinates
-    const Eigen::VectorXd scaled_delta = scale.cwiseProduct(delta_sel);
-    target_sel = V.transpose() * scaled_delta;
-    Eigen::VectorXd d = s.delta;
-    int iterations = 0;
-    for (; iterations < 20000; ++iterations) {
-      for (int k = 0; k < n; ++k) {
-        const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
-        const model::StandardParameters theta = nominal + d.segment<kBodyParameters>(body_offset(k));
-        d.segment<kBodyParameters>(body_offset(k)) = project_physical(theta, floors[k]) - nominal;
-      }
-      Eigen::VectorXd ds(pi);
-      for (int j = 0; j < pi; ++j) ds[j] = scale[j] * d[selected_[static_cast<std::size_t>(j)]];
-      const Eigen::VectorXd miss = target_sel.head(s.rank) - V.transpose() * ds;
-      const bool kept_all = miss.norm() <= 1e-9 * (1.0 + target_sel.norm());
-      if (kept_all && physical(d, nullptr)) break;
-      ds += V * miss;
-      for (int j = 0; j < pi; ++j) d[selected_[static_cast<std::size_t>(j)]] = ds[j] / scale[j];
-    }
     std::string names;
     for (int k : unphysical) names += (names.empty() ? "" : ", ") + model_.bodies[static_cast<std::size_t>(k)].name;
-    if (!physical(d, nullptr)) {
-      // No physical point keeps every identified combination (the data or the model are
-      // inconsistent with a rigid body): of the nearest physical points to where the iteration
-      // ended and to the minimum-norm correction, take the one that fits the data better.
-      auto project_all = [&](Eigen::VectorXd delta) {
-        for (int k = 0; k < n; ++k) {
-          const model::StandardParameters nominal = theta_nominal_.segment<kBodyParameters>(body_offset(k));
-          delta.segment<kBodyParameters>(body_offset(k)) =
-              project_physical(nominal + delta.segment<kBodyParameters>(body_offset(k)), floors[k]) - nominal;
-        }
-        return delta;
-      };
-      auto cost = [&](const Eigen::VectorXd& delta) {
-        Eigen::VectorXd xs(columns_);
-        Eigen::VectorXd dsel(pi);
-        for (int j = 0; j < pi; ++j) dsel[j] = delta[selected_[static_cast<std::size_t>(j)]];
-        xs << dsel, Aff_inv * (b.tail(pf) - Aif.transpose() * dsel);
-        return xs.dot(A * xs) - 2 * b.dot(xs);
-      };
-      const Eigen::VectorXd from_iteration = project_all(d);
-      const Eigen::VectorXd from_minimum_norm = project_all(s.delta);
-      d = cost(from_iteration) <= cost(from_minimum_norm) ? from_iteration : from_minimum_norm;
-      s.projections.push_back(names + ": not physical, and no physical body keeps every identified combination; "
-                              "projected to nearby physical parameters (the fit is worse for it)");
+    if (options_.gravity_only) {
+      // The inertias about the centres of mass are nominal (physical), so only a mass that is
+      // not positive can make a body unphysical; such a body keeps its nominal parameters.
+      for (int k : unphysical) s.delta.segment<kBodyParameters>(body_offset(k)).setZero();
+      s.projections.push_back(names + ": identified mass not positive; the body keeps its nominal parameters");
     } else {
-      s.projections.push_back(names + ": minimum-norm correction not physical; moved along unidentified "
-                              "directions (" + std::to_string(iterations) + " iterations), identified combinations kept");
+      // Selected columns are all 10 nq parameters here.
+      const Eigen::MatrixXd information = scale.asDiagonal() * V * retained.asDiagonal() * V.transpose() * scale.asDiagonal();
+      const Eigen::VectorXd pull = 1e-2 * options_.rank_tolerance * options_.rank_tolerance * top * scale.cwiseAbs2();
+      Eigen::MatrixXd metric = information;
+      metric.diagonal() += pull;
+      int steps = 0;
+      s.delta = nearest_physical(theta_nominal_, s.delta_unprojected, metric, floors, &steps);
+      // How far the identified combinations had to move, in their standard errors.
+      double worst = 0;
+      for (const BaseParameter& base : s.base) {
+        const double moved = base.direction.dot(s.delta - s.delta_unprojected);
+        if (base.standard_error > 0) worst = std::max(worst, std::abs(moved) / base.standard_error);
+      }
+      char text[160];
+      std::snprintf(text, sizeof text,
+                    ": minimum-norm correction not physical; nearest physical correction taken "
+                    "(%d Newton steps; identified combinations moved by at most %.2g standard errors)",
+                    steps, worst);
+      s.projections.push_back(names + text);
     }
-    s.delta = d;
   }
 
   // Per-parameter estimates.
