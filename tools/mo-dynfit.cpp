@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   tool.add_inputs("streams of collision-free motion (t, q<j>, dq<j>, tau_m<j> or i<j>); - or none: stdin");
   tool.add_profile(true);
   tool.add_payload();
+  tool.add_seed();
   auto& app = tool.app();
   dynfit::IdentifyOptions options;
   std::string output, report_path;
@@ -51,6 +52,9 @@ int main(int argc, char** argv) {
   app.add_option("--holdout-segment", options.holdout_segment, "length of the validation segments, s (default 10)")
       ->type_name("SECONDS");
   app.add_option("--holdout-every", options.holdout_every, "hold out every N-th segment, 0 none (default 5)")->type_name("N");
+  app.add_option("--velocity-noise-draws", options.velocity_noise_draws,
+                 "fits with the velocity noise doubled, for its bias in the uncertainty; 0 none (default 2)")
+      ->type_name("N");
 
   return tool.run(argc, argv, [&] {
     const auto start = std::chrono::steady_clock::now();
@@ -69,6 +73,7 @@ int main(int argc, char** argv) {
     }
     if (filter_gain > 0) options.filter_gain = filter_gain;
     options.fit_friction = !no_friction;
+    options.seed = tool.seed();
     std::string why;
     if (!options.IsValid(&why)) throw cli::UsageError(why);
 

@@ -160,6 +160,8 @@ bool IdentifyOptions::IsValid(std::string* why) const {
   if (!(min_speed >= 0) || !std::isfinite(min_speed)) return reject(why, "minimum speed must be >= 0");
   if (!(slow_settle_time_constants >= 0) || !std::isfinite(slow_settle_time_constants))
     return reject(why, "settle time after slow motion must be >= 0");
+  if (velocity_noise_draws < 0) return reject(why, "velocity-noise draws must be >= 0");
+  if (velocity_noise_samples < 10) return reject(why, "velocity-noise samples must be >= 10");
   return true;
 }
 
@@ -185,9 +187,28 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
   held_joint_.assign(static_cast<std::size_t>(n_), empty);
   block_length_ = options_.block;
   slow_until_.assign(static_cast<std::size_t>(n_), -std::numeric_limits<double>::infinity());
+  if (options_.friction_probe && options_.fit_friction) {
+    IdentifyOptions probe = options_;
+    probe.min_speed = std::max(2 * options_.min_speed, 0.1);
+    probe.friction_probe = false;
+    probe.velocity_noise_draws = 0;
+    friction_probe_ = std::make_unique<Identifier>(nominal, probe);
+  }
 }
 
+Identifier::~Identifier() = default;
+
 void Identifier::restart() {
+  restart_sample();
+  if (friction_probe_) friction_probe_->restart_sample();
+  if (copies_started_) {
+    for (auto& copy : noisy_) copy->restart_sample();
+  } else {
+    restart_pending_ = true;
+  }
+}
+
+void Identifier::restart_sample() {
   // A new log starts a new held-out segment period.
   t_log_ = options_.holdout_segment * std::ceil(t_log_ / options_.holdout_segment + 1e-9);
   started_ = false;
@@ -241,6 +262,87 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
   if (q.size() != n_ || dq.size() != n_ || tau_m.size() != n_) {
     throw Error("dynfit: a sample has the wrong number of joints");
   }
+  add_sample(t, q, dq, tau_m);
+  if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
+  const std::uint64_t index = sample_index_++;
+  if (options_.velocity_noise_draws == 0) return;
+  if (!copies_started_) {
+    kept_.push_back({index, t, q, dq, tau_m, restart_pending_});
+    restart_pending_ = false;
+    if (kept_.size() >= static_cast<std::size_t>(options_.velocity_noise_samples)) {
+      noisy_ = replay_kept(&velocity_noise_);
+      copies_started_ = true;
+      kept_.clear();
+      kept_.shrink_to_fit();
+    }
+    return;
+  }
+  for (std::size_t c = 0; c < noisy_.size(); ++c) add_to_copy(*noisy_[c], c, index, velocity_noise_, t, q, dq, tau_m);
+}
+
+namespace {
+
+std::uint64_t mix(std::uint64_t x) {  // splitmix64's finaliser
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+double standard_normal(std::uint64_t key) {  // Box-Muller on two uniforms from the key
+  const double u1 = (static_cast<double>(mix(key) >> 11) + 0.5) * 0x1.0p-53;
+  const double u2 = static_cast<double>(mix(key ^ 0x5851f42d4c957f2dULL) >> 11) * 0x1.0p-53;
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
+}
+
+}  // namespace
+
+void Identifier::add_to_copy(Identifier& copy, std::size_t which, std::uint64_t index, const Eigen::VectorXd& noise,
+                             double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
+                             const Eigen::VectorXd& tau_m) const {
+  Eigen::VectorXd noisy = dq;
+  for (int j = 0; j < n_; ++j) {
+    const std::uint64_t key = mix(mix(mix(options_.seed) ^ which) ^ index) ^ static_cast<std::uint64_t>(j);
+    noisy[j] += noise[j] * standard_normal(key);
+  }
+  copy.add_sample(t, q, noisy, tau_m);
+}
+
+std::vector<std::unique_ptr<Identifier>> Identifier::replay_kept(Eigen::VectorXd* noise_level) const {
+  std::vector<std::unique_ptr<Identifier>> copies;
+  Eigen::VectorXd& noise = *noise_level;
+  noise = Eigen::VectorXd::Zero(n_);
+  if (kept_.size() < 3) return copies;
+  // The noise level per joint: white noise of deviation s has second differences of
+  // deviation s sqrt(6); the median absolute value is robust to the motion's own curvature
+  // and to the odd outlier.
+  for (int j = 0; j < n_; ++j) {
+    std::vector<double> d2;
+    for (std::size_t k = 1; k + 1 < kept_.size(); ++k) {
+      if (kept_[k].restart || kept_[k + 1].restart) continue;
+      const double d = kept_[k + 1].dq[j] - 2 * kept_[k].dq[j] + kept_[k - 1].dq[j];
+      if (std::isfinite(d)) d2.push_back(std::abs(d));
+    }
+    if (d2.empty()) continue;
+    auto mid = d2.begin() + static_cast<std::ptrdiff_t>(d2.size() / 2);
+    std::nth_element(d2.begin(), mid, d2.end());
+    noise[j] = *mid / 0.6744897501960817 / std::sqrt(6.0);
+  }
+  if (!(noise.maxCoeff() > 0)) return copies;  // exact velocities: nothing to double
+  IdentifyOptions copy_options = options_;
+  copy_options.velocity_noise_draws = 0;
+  for (int c = 0; c < options_.velocity_noise_draws; ++c) {
+    copies.push_back(std::make_unique<Identifier>(model_, copy_options));
+    for (const KeptSample& k : kept_) {
+      if (k.restart) copies.back()->restart_sample();
+      add_to_copy(*copies.back(), static_cast<std::size_t>(c), k.index, noise, k.t, k.q, k.dq, k.tau_m);
+    }
+  }
+  return copies;
+}
+
+void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
+                            const Eigen::VectorXd& tau_m) {
   if (!std::isfinite(t) || !q.allFinite() || !dq.allFinite() || !tau_m.allFinite()) {
     ++skipped_;
     started_ = false;
@@ -348,6 +450,44 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
 }
 
 IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
+  IdentifySummary s = solve_one(current);
+  // The velocity-noise term: the mean shift of the unprojected estimate when the noise doubles.
+  std::vector<std::unique_ptr<Identifier>> short_log_copies;
+  const std::vector<std::unique_ptr<Identifier>>* copies = &noisy_;
+  Eigen::VectorXd noise = velocity_noise_;
+  if (!copies_started_) {  // a log shorter than the noise estimate's samples
+    short_log_copies = replay_kept(&noise);
+    copies = &short_log_copies;
+  }
+  Eigen::VectorXd shift = Eigen::VectorXd::Zero(s.delta_unprojected.size());
+  for (const auto& copy : *copies)
+    shift += (copy->solve_one(nullptr).delta_unprojected - s.delta_unprojected) / static_cast<double>(copies->size());
+  s.velocity_noise = noise.size() == n_ ? noise : Eigen::VectorXd::Zero(n_);
+  s.velocity_noise_draws = static_cast<int>(copies->size());
+  // The friction-model term; a log with too little fast motion for the probe has none.
+  Eigen::VectorXd friction_shift = Eigen::VectorXd::Zero(shift.size());
+  if (friction_probe_ && friction_probe_->samples_fit() > 0) {
+    friction_shift = friction_probe_->solve_one(nullptr).delta_unprojected - s.delta_unprojected;
+    s.friction_probe_min_speed = friction_probe_->options_.min_speed;
+  }
+  for (BaseParameter& base : s.base) {
+    base.velocity_noise_shift = base.direction.dot(shift);
+    base.friction_shift = base.direction.dot(friction_shift);
+    base.uncertainty = std::sqrt(base.standard_error * base.standard_error +
+                                 base.velocity_noise_shift * base.velocity_noise_shift +
+                                 base.friction_shift * base.friction_shift);
+  }
+  for (ParameterEstimate& e : s.parameters) {
+    const Eigen::Index c = kBodyParameters * e.body + e.index;
+    e.velocity_noise_shift = e.fitted ? shift[c] : 0.0;
+    e.friction_shift = e.fitted ? friction_shift[c] : 0.0;
+    e.uncertainty = std::sqrt(e.standard_error * e.standard_error + e.velocity_noise_shift * e.velocity_noise_shift +
+                              e.friction_shift * e.friction_shift);
+  }
+  return s;
+}
+
+IdentifySummary Identifier::solve_one(const Eigen::VectorXd* current) const {
   const int n = n_, pi = fitted_, pf = columns_ - fitted_, p = kBodyParameters * n;
   if (samples_fit() == 0) {
     throw Error("dynfit: no sample to fit (the logs are shorter than the filter's settling time "

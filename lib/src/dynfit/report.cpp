@@ -138,18 +138,32 @@ std::string report_text(const Report& report) {
     if (!s.projections.empty()) text += format("   [%.4f before the projection]", s.rms_unprojected[j]);
     line(text);
   }
-  line("base parameters (identified combinations), nominal -> value +- standard error:");
+  if (s.velocity_noise_draws > 0) {
+    std::string levels;
+    for (int j = 0; j < s.nq; ++j) levels += format(" %.2g", s.velocity_noise[j]);
+    line("velocity noise (rad/s per joint):" + levels + "; its bias is estimated from " +
+         std::to_string(s.velocity_noise_draws) + " fit" + (s.velocity_noise_draws == 1 ? "" : "s") +
+         " with it doubled");
+  } else {
+    line("velocity noise: not estimated (none measured, or --velocity-noise-draws 0)");
+  }
+  if (s.friction_probe_min_speed > 0)
+    line("friction-model term: the shift when --min-speed rises to " + format("%g", s.friction_probe_min_speed) +
+         " rad/s");
+  line("base parameters (identified combinations), nominal -> value +- uncertainty (standard error, velocity-noise "
+       "shift, friction-model shift):");
   for (std::size_t r = 0; r < s.base.size(); ++r) {
     const BaseParameter& b = s.base[r];
-    std::snprintf(buffer, sizeof buffer, "  b%-2zu %11.5g -> %11.5g +- %-9.3g sv %.2g  ", r + 1, b.nominal, b.value,
-                  b.standard_error, b.singular_value);
+    std::snprintf(buffer, sizeof buffer, "  b%-2zu %11.5g -> %11.5g +- %-9.3g (%.2g, %.2g, %.2g) sv %.2g  ", r + 1,
+                  b.nominal, b.value, b.uncertainty, b.standard_error, b.velocity_noise_shift, b.friction_shift,
+                  b.singular_value);
     line(buffer + combination_text(b, report.body_names));
   }
-  line("parameters (body frame, about the body origin), nominal -> value +- standard error:");
+  line("parameters (body frame, about the body origin), nominal -> value +- uncertainty:");
   for (const ParameterEstimate& p : s.parameters) {
     std::snprintf(buffer, sizeof buffer, "  %-12s %-4s %11.5g -> %11.5g +- %-9.3g %s",
                   report.body_names[static_cast<std::size_t>(p.body)].c_str(),
-                  parameter_names()[static_cast<std::size_t>(p.index)], p.nominal, p.value, p.standard_error,
+                  parameter_names()[static_cast<std::size_t>(p.index)], p.nominal, p.value, p.uncertainty,
                   excitation(p));
     line(buffer);
   }
@@ -196,6 +210,8 @@ nlohmann::json report_json(const Report& report) {
                {"samples_skipped", s.samples_skipped}, {"seconds_fitted", s.seconds_fit},
                {"seconds_held_out", s.seconds_held_out}, {"filter_starts", s.restarts},
                {"covariance_blocks", s.blocks}};
+  j["velocity_noise"] = {{"per_joint", vector_json(s.velocity_noise)}, {"draws", s.velocity_noise_draws}};
+  j["friction_probe_min_speed"] = s.friction_probe_min_speed;
   j["rank"] = s.rank;
   j["columns"] = s.columns;
   j["condition_number"] = number(s.condition_number);
@@ -218,6 +234,9 @@ nlohmann::json report_json(const Report& report) {
                          {"nominal", number(b.nominal)},
                          {"value", number(b.value)},
                          {"standard_error", number(b.standard_error)},
+                         {"velocity_noise_shift", number(b.velocity_noise_shift)},
+                         {"friction_shift", number(b.friction_shift)},
+                         {"uncertainty", number(b.uncertainty)},
                          {"singular_value", number(b.singular_value)},
                          {"text", combination_text(b, report.body_names)}});
   }
@@ -228,6 +247,9 @@ nlohmann::json report_json(const Report& report) {
                                {"nominal", number(p.nominal)},
                                {"value", number(p.value)},
                                {"standard_error", number(p.standard_error)},
+                               {"velocity_noise_shift", number(p.velocity_noise_shift)},
+                               {"friction_shift", number(p.friction_shift)},
+                               {"uncertainty", number(p.uncertainty)},
                                {"identifiability", number(p.identifiability)},
                                {"excitation", excitation(p)}});
   }

@@ -23,9 +23,18 @@
 // Uncertainty: the filtered equation errors are correlated in time (the filter's memory, and
 // friction-model error), so the covariance is the cluster-robust sandwich over blocks of the
 // log (at least block seconds; neighbouring blocks are merged to keep at most 64 of them).
+// Noise in the measured velocity enters the regressor itself (errors in variables) and biases
+// the fit by an amount the sandwich does not see; it grows with the noise variance. So the
+// identifier also fits copies of the data with as much noise again (white, of the level
+// estimated from the velocity's second differences over the first samples) and reports the
+// mean shift as a velocity-noise term beside the standard error (SIMEX's first step: Cook and
+// Stefanski 1994). And the Coulomb + viscous model is least true just above min_speed (the
+// Stribeck dip, the bristles): a second fit with min_speed doubled gives a friction-model
+// shift. uncertainty = sqrt(standard_error^2 + velocity-noise shift^2 + friction shift^2).
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -69,6 +78,13 @@ struct IdentifyOptions {
   double slow_settle_time_constants = 3.0;
   // Shortest block of the sandwich covariance, s (> 0).
   double block = 1.0;
+  // Fits with doubled velocity noise for the errors-in-variables term (>= 0; 0: none), the
+  // samples that estimate the noise level first (>= 10), and the seed of the added noise.
+  int velocity_noise_draws = 2;
+  int velocity_noise_samples = 2000;
+  std::uint64_t seed = 1;
+  // Fit again with min_speed doubled (at least 0.1 rad/s) for the friction-model term.
+  bool friction_probe = true;
 
   // False (with the reason in `why`, when non-null) for values outside the ranges above.
   bool IsValid(std::string* why) const;
@@ -80,6 +96,9 @@ struct BaseParameter {
   double nominal = 0;            // direction . theta_nominal
   double value = 0;              // direction . (theta_nominal + delta), before projection
   double standard_error = 0;
+  double velocity_noise_shift = 0;  // mean shift of value when the velocity noise doubles
+  double friction_shift = 0;     // shift of value when min_speed doubles
+  double uncertainty = 0;        // sqrt(standard_error^2 + both shifts^2)
   double singular_value = 0;     // relative to the largest (1 for the best excited)
 };
 
@@ -90,6 +109,9 @@ struct ParameterEstimate {
   double nominal = 0;
   double value = 0;              // nominal + delta, after projection
   double standard_error = 0;     // of the unprojected estimate (0 when not fitted)
+  double velocity_noise_shift = 0;  // as BaseParameter's
+  double friction_shift = 0;
+  double uncertainty = 0;
   // Share of the parameter that the identified combinations determine: 1 identified on its
   // own, 0 not excited (kept at nominal), in between: only in combination with others.
   double identifiability = 0;
@@ -125,15 +147,24 @@ struct IdentifySummary {
   std::uint64_t samples_fit = 0, samples_held_out = 0, samples_skipped = 0;
   double seconds_fit = 0, seconds_held_out = 0;
   int restarts = 0;              // filter restarts (logs, gaps, bad values)
+  // Estimated white noise of the measured velocity per joint, rad/s, and the number of fits
+  // with it doubled that the velocity-noise shifts average (0: none).
+  Eigen::VectorXd velocity_noise;
+  int velocity_noise_draws = 0;
+  // The min_speed of the friction-model probe (0: no probe, e.g. friction not fitted).
+  double friction_probe_min_speed = 0;
   int blocks = 0;                // clusters of the covariance
 };
 
-// Accumulates samples of one or more logs and solves. Memory: O((10 nq)^2), independent of
-// the number of samples.
+// Accumulates samples of one or more logs and solves. Memory: O((10 nq)^2) for each of
+// 1 + velocity_noise_draws fits, independent of the number of samples.
 class Identifier {
  public:
   // Throws momentum::Error when the options are invalid.
   Identifier(const model::Model& nominal, const IdentifyOptions& options);
+  ~Identifier();
+  Identifier(const Identifier&) = delete;
+  Identifier& operator=(const Identifier&) = delete;
 
   // One sample: t (s, increasing), q (rad), dq (rad/s), tau_m (Nm), nq each. A non-finite
   // value or a time that does not increase skips the sample and restarts the filters.
@@ -162,6 +193,31 @@ class Identifier {
   };
   void begin_block();
   void accumulate(const Eigen::MatrixXd& Z, const Eigen::VectorXd& e, bool held_out);
+  // The fit itself, without the velocity-noise copies.
+  void add_sample(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m);
+  void restart_sample();
+  IdentifySummary solve_one(const Eigen::VectorXd* current) const;
+  // Velocity-noise copies: the first velocity_noise_samples samples are kept; from them the
+  // noise level (median absolute second difference of dq), then the copies start with them
+  // and take every later sample with noise added.
+  std::vector<std::unique_ptr<Identifier>> replay_kept(Eigen::VectorXd* noise_level) const;
+  // The velocity noise added to copy `copy` at sample `index`, joint `joint`: a standard
+  // normal from (seed, copy, index, joint) alone, so that the copies replay identically.
+  void add_to_copy(Identifier& copy, std::size_t which, std::uint64_t index, const Eigen::VectorXd& noise, double t,
+                   const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m) const;
+  struct KeptSample {
+    std::uint64_t index = 0;
+    double t = 0;
+    Eigen::VectorXd q, dq, tau_m;
+    bool restart = false;  // a restart() came before this sample
+  };
+  std::uint64_t sample_index_ = 0;
+  std::vector<KeptSample> kept_;
+  bool restart_pending_ = false;
+  bool copies_started_ = false;
+  std::vector<std::unique_ptr<Identifier>> noisy_;
+  Eigen::VectorXd velocity_noise_;
+  std::unique_ptr<Identifier> friction_probe_;
 
   const model::Model& model_;
   IdentifyOptions options_;
