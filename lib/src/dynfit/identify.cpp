@@ -628,10 +628,10 @@ IdentifySummary Identifier::solve_one(const Eigen::VectorXd* current) const {
   // Physical consistency. Where the minimum-norm correction is not physical, take the physical
   // correction nearest to it in the metric of the data: the truncated information matrix
   // (identified combinations cost what the data say they cost), plus a weak pull toward the
-  // minimum-norm correction (mu, far below the weakest identified direction) so that what the
-  // data do not determine moves only as much as physics needs. A convex problem (the physical
-  // set is convex in the pseudo-inertia J, which is linear in theta), solved by ADMM with J as
-  // the split variable, where the projection is an eigenvalue clamp per body.
+  // minimum-norm correction (1% of the weakest identified direction's, per scaled column) so
+  // that what the data do not determine moves only as much as physics needs. A convex problem
+  // (the physical set is convex in the pseudo-inertia J, which is linear in theta): see
+  // nearest_physical().
   auto physical = [&](const Eigen::VectorXd& delta, std::vector<int>* bad) {
     bool ok = true;
     for (int k = 0; k < n; ++k) {
