@@ -28,7 +28,7 @@ void print_stats(const stream::StreamStats& stats, std::FILE* out) {
       std::fputc('\n', out);
     };
     anomaly("gaps", s.gaps);
-    std::fprintf(out, "irregular   %" PRIu64 "  (steps more than 10%% off the median, not gaps)\n", s.irregular.count);
+    std::fprintf(out, "irregular   %" PRIu64 "  (steps more than 10%% off the median, not gaps)\n", s.irregular);
     anomaly("backwards", s.backwards);
     anomaly("same-time", s.repeated_time);
     anomaly("duplicates", s.duplicates);

@@ -188,11 +188,14 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
   block_length_ = options_.block;
   slow_until_.assign(static_cast<std::size_t>(n_), -std::numeric_limits<double>::infinity());
   if (options_.friction_probe && options_.fit_friction) {
+    // Only its normal equations are used: this identifier feeds it the same filtered rows,
+    // gated by the higher speed (probe_slow_until_).
     IdentifyOptions probe = options_;
     probe.min_speed = std::max(2 * options_.min_speed, 0.1);
     probe.friction_probe = false;
     probe.velocity_noise_draws = 0;
     friction_probe_ = std::make_unique<Identifier>(nominal, probe);
+    probe_slow_until_ = slow_until_;
   }
 }
 
@@ -200,7 +203,6 @@ Identifier::~Identifier() = default;
 
 void Identifier::restart() {
   restart_sample();
-  if (friction_probe_) friction_probe_->restart_sample();
   if (copies_started_) {
     for (auto& copy : noisy_) copy->restart_sample();
   } else {
@@ -263,7 +265,6 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
     throw Error("dynfit: a sample has the wrong number of joints");
   }
   add_sample(t, q, dq, tau_m);
-  if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
   const std::uint64_t index = sample_index_++;
   if (options_.velocity_noise_draws == 0) return;
   if (!copies_started_) {
@@ -277,7 +278,8 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
     }
     return;
   }
-  for (std::size_t c = 0; c < noisy_.size(); ++c) add_to_copy(*noisy_[c], c, index, velocity_noise_, t, q, dq, tau_m);
+  for (std::size_t c = 0; c < noisy_.size(); ++c)
+    add_to_copy(*noisy_[c], c, index, velocity_noise_, t, q, dq, tau_m, noisy_dq_);
 }
 
 namespace {
@@ -298,9 +300,9 @@ double standard_normal(std::uint64_t key) {  // Box-Muller on two uniforms from 
 }  // namespace
 
 void Identifier::add_to_copy(Identifier& copy, std::size_t which, std::uint64_t index, const Eigen::VectorXd& noise,
-                             double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
-                             const Eigen::VectorXd& tau_m) const {
-  Eigen::VectorXd noisy = dq;
+                             double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
+                             Eigen::VectorXd& noisy) const {
+  noisy = dq;
   for (int j = 0; j < n_; ++j) {
     const std::uint64_t key = mix(mix(mix(options_.seed) ^ which) ^ index) ^ static_cast<std::uint64_t>(j);
     noisy[j] += noise[j] * standard_normal(key);
@@ -331,11 +333,13 @@ std::vector<std::unique_ptr<Identifier>> Identifier::replay_kept(Eigen::VectorXd
   if (!(noise.maxCoeff() > 0)) return copies;  // exact velocities: nothing to double
   IdentifyOptions copy_options = options_;
   copy_options.velocity_noise_draws = 0;
+  copy_options.friction_probe = false;
+  Eigen::VectorXd scratch(n_);
   for (int c = 0; c < options_.velocity_noise_draws; ++c) {
     copies.push_back(std::make_unique<Identifier>(model_, copy_options));
     for (const KeptSample& k : kept_) {
       if (k.restart) copies.back()->restart_sample();
-      add_to_copy(*copies.back(), static_cast<std::size_t>(c), k.index, noise, k.t, k.q, k.dq, k.tau_m);
+      add_to_copy(*copies.back(), static_cast<std::size_t>(c), k.index, noise, k.t, k.q, k.dq, k.tau_m, scratch);
     }
   }
   return copies;
@@ -408,10 +412,11 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   }
   advance(Fpk_, pk_prev_, pk_);
   const double settle = options_.settle_time_constants / options_.filter_gain;
+  const double slow_settle = options_.slow_settle_time_constants / options_.filter_gain;
   for (int j = 0; j < n_; ++j) {
-    if (std::abs(dq[j]) < options_.min_speed) {
-      slow_until_[static_cast<std::size_t>(j)] = t + options_.slow_settle_time_constants / options_.filter_gain;
-    }
+    const auto i = static_cast<std::size_t>(j);
+    if (std::abs(dq[j]) < options_.min_speed) slow_until_[i] = t + slow_settle;
+    if (friction_probe_ && std::abs(dq[j]) < friction_probe_->options_.min_speed) probe_slow_until_[i] = t + slow_settle;
   }
   if (t - t_start_ < settle) return;
 
@@ -428,25 +433,32 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
       Z(i, fitted_ + 2 * i + 1) = g * Ff_(i, 1);
     }
   }
-  // Rows of joints that were slow within the filter's memory do not count (friction there is
-  // presliding and Stribeck, which the Coulomb + viscous model cannot follow).
-  bool any = false;
-  for (int i = 0; i < n_; ++i) {
-    if (t < slow_until_[static_cast<std::size_t>(i)]) {
-      Z.row(i).setZero();
-      e[i] = 0.0;
-    } else {
-      any = true;
-    }
-  }
-  if (!any) return;
   bool held_out = false;
   if (options_.holdout_every > 0) {
     const auto segment = static_cast<long long>(std::floor(t_log_ / options_.holdout_segment));
     held_out = segment % options_.holdout_every == options_.holdout_every - 1;
   }
-  accumulate(Z, e, held_out);
-  (held_out ? seconds_held_ : seconds_fit_) += dt;
+  // Rows of joints that were slow within the filter's memory do not count (friction there is
+  // presliding and Stribeck, which the Coulomb + viscous model cannot follow): here, and with
+  // the probe's higher speed in the friction-model probe.
+  auto count_fast_rows = [&](Identifier& into, const std::vector<double>& slow_until) {
+    bool any = false;
+    for (int i = 0; i < n_; ++i) {
+      if (t < slow_until[static_cast<std::size_t>(i)]) {
+        Z.row(i).setZero();
+        e[i] = 0.0;
+      } else {
+        any = true;
+      }
+    }
+    if (!any) return;
+    into.t_log_ = t_log_;  // the probe's covariance blocks follow this log's time
+    into.accumulate(Z, e, held_out);
+    (held_out ? into.seconds_held_ : into.seconds_fit_) += dt;
+  };
+  // The probe's speed is the higher, so its rows are a subset: it goes second.
+  count_fast_rows(*this, slow_until_);
+  if (friction_probe_) count_fast_rows(*friction_probe_, probe_slow_until_);
 }
 
 IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {

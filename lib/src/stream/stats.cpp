@@ -100,30 +100,25 @@ StreamStats::Summary StreamStats::summary() const {
     }
   }
   out.dt_median = std::clamp(out.dt_median, out.dt_min, out.dt_max);
-  // Gaps: every step above 1.5 median. The count is exact from the distinct steps while they
-  // fit in memory (a log at a fixed rate has few), else from the histogram's bins wholly above
-  // the limit; the places come from the kept steps (which are the first ones, in order).
-  const double limit = 1.5 * out.dt_median;
-  if (!exact_overflow_) {
-    for (const auto& [dt, count] : exact_steps_)
-      if (dt > limit) out.gaps.count += count;
-  } else {
-    const double limit_bin = (std::log10(limit) - kMinDecade) * kBinsPerDecade;
-    for (std::size_t i = static_cast<std::size_t>(std::max(0.0, std::ceil(limit_bin))); i < histogram_.size(); ++i)
-      out.gaps.count += histogram_[i];
-  }
-  // Irregular steps, from the same counts: exact, or the bins wholly outside the +-10% band.
-  const double low = 0.9 * out.dt_median, high = 1.1 * out.dt_median;
-  if (!exact_overflow_) {
-    for (const auto& [dt, count] : exact_steps_)
-      if (dt < low || (dt > high && dt <= limit)) out.irregular.count += count;
-  } else {
-    auto bin_of = [](double dt) { return (std::log10(dt) - kMinDecade) * kBinsPerDecade; };
-    for (std::size_t i = 0; i < histogram_.size(); ++i) {
-      const double lo = static_cast<double>(i), hi = lo + 1;
-      if (hi <= bin_of(low) || (lo >= bin_of(high) && hi <= bin_of(limit))) out.irregular.count += histogram_[i];
+  // Steps with lo < dt <= hi: exact from the distinct steps while they fit in memory (a log at
+  // a fixed rate has few), else the histogram's bins wholly inside the interval.
+  auto steps_between = [&](double lo, double hi) {
+    std::uint64_t count = 0;
+    if (!exact_overflow_) {
+      for (const auto& [dt, n] : exact_steps_)
+        if (dt > lo && dt <= hi) count += n;
+      return count;
     }
-  }
+    auto bin_of = [](double dt) { return dt > 0 ? (std::log10(dt) - kMinDecade) * kBinsPerDecade : -INFINITY; };
+    for (std::size_t i = 0; i < histogram_.size(); ++i)
+      if (static_cast<double>(i) >= bin_of(lo) && static_cast<double>(i) + 1 <= bin_of(hi)) count += histogram_[i];
+    return count;
+  };
+  // Gaps: every step above 1.5 median; the places come from the kept steps (the first ones,
+  // in order). Irregular: more than 10% off the median, not a gap.
+  const double limit = 1.5 * out.dt_median;
+  out.gaps.count = steps_between(limit, INFINITY);
+  out.irregular = steps_between(0, std::nextafter(0.9 * out.dt_median, 0.0)) + steps_between(1.1 * out.dt_median, limit);
   std::uint64_t listed = 0;
   for (const auto& [dt, where] : big_steps_) {
     if (!(dt > limit)) continue;

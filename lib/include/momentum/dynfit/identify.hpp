@@ -203,8 +203,10 @@ class Identifier {
   std::vector<std::unique_ptr<Identifier>> replay_kept(Eigen::VectorXd* noise_level) const;
   // The velocity noise added to copy `copy` at sample `index`, joint `joint`: a standard
   // normal from (seed, copy, index, joint) alone, so that the copies replay identically.
+  // `noisy` is scratch for the perturbed velocity.
   void add_to_copy(Identifier& copy, std::size_t which, std::uint64_t index, const Eigen::VectorXd& noise, double t,
-                   const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m) const;
+                   const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
+                   Eigen::VectorXd& noisy) const;
   struct KeptSample {
     std::uint64_t index = 0;
     double t = 0;
@@ -216,8 +218,11 @@ class Identifier {
   bool restart_pending_ = false;
   bool copies_started_ = false;
   std::vector<std::unique_ptr<Identifier>> noisy_;
-  Eigen::VectorXd velocity_noise_;
+  Eigen::VectorXd velocity_noise_, noisy_dq_;
+  // The friction-model probe: a second set of normal equations over the rows that stay fast
+  // at its higher min_speed (per joint, the time until which a joint's rows do not count).
   std::unique_ptr<Identifier> friction_probe_;
+  std::vector<double> probe_slow_until_;
 
   const model::Model& model_;
   IdentifyOptions options_;

@@ -33,7 +33,7 @@ class StreamStats {
     Anomaly gaps;             // dt > 1.5 median dt: lost samples
     // Steps more than 10% off the median that are not gaps (sampling jitter, a changed rate).
     // Counted only: which ones they are is known only once the median is.
-    Anomaly irregular;
+    std::uint64_t irregular = 0;
     Anomaly backwards;        // dt < 0: rows written early
     Anomaly repeated_time;    // dt == 0 with different values
     Anomaly duplicates;       // a row equal to the previous one in every column
