@@ -56,6 +56,9 @@ head -c 20000 "$tmp/days/broken/log-3.csv" > "$tmp/days/broken/log-3.cut" &&
   mv "$tmp/days/broken/log-3.cut" "$tmp/days/broken/log-3.csv"
 day clean2 51 52 53 54
 
+# A day without logs (the recorder was down): nothing to go on, the profile stays.
+mkdir -p "$tmp/days/empty"
+night "night 0, no logs" empty
 night "night 1, clean" clean1
 python3 - "$profile" <<'EOF'
 import json, sys

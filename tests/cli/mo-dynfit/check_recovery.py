@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Checks a mo-dynfit report against the TRUE arm the log was simulated from.
 
-usage: check_recovery.py TRUE_URDF FIT_REPORT TRUTH_REPORT [--sigmas 3]
+usage: check_recovery.py TRUE_URDF FIT_REPORT TRUTH_REPORT [--sigmas 3] [--velocity-noise SIGMA]
 
 The true standard parameters are computed here, independently of the library, from the URDF's
 <inertial> elements (links on fixed joints merged into their moving parent; every origin in
@@ -76,6 +76,11 @@ def main():
         k = args.index("--sigmas")
         sigmas = float(args[k + 1])
         del args[k:k + 2]
+    velocity_noise = None
+    if "--velocity-noise" in args:
+        k = args.index("--velocity-noise")
+        velocity_noise = float(args[k + 1])
+        del args[k:k + 2]
     urdf, fit_path, truth_path = args
     theta = standard_parameters(urdf)
     fit = json.load(open(fit_path))
@@ -101,6 +106,13 @@ def main():
         if not inside:
             ok = False
     print(f"{len(fit['base'])} base parameters, largest |z| {worst:.2f} (allowed {sigmas})")
+    if velocity_noise is not None:
+        # The level the simulator added, estimated by mo-dynfit from the velocities alone.
+        levels = fit["velocity_noise"]["per_joint"]
+        good = all(abs(v / velocity_noise - 1) < 0.15 for v in levels)
+        print(f"velocity noise estimated {' '.join(f'{v:.4g}' for v in levels)} rad/s, simulated {velocity_noise}"
+              f"{'' if good else '   <-- off by more than 15%'}")
+        ok = ok and good
     # What the data do not determine may move only as far as physics needs: an unexcited
     # inertia entry stays within its body's nominal inertia trace of the nominal value (the
     # alternating projection this replaced had put 1.02 kg m^2 on a 0.022 kg m^2 waist).
