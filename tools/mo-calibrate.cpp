@@ -1,4 +1,5 @@
 // mo-calibrate: per-joint collision thresholds from collision-free motion, into the profile.
+#include <cmath>
 #include <cstdio>
 #include <optional>
 
@@ -14,13 +15,22 @@ int main(int argc, char** argv) {
   cli::Tool tool("mo-calibrate", "Collision thresholds per joint from collision-free motion, into the profile.");
   tool.add_inputs("streams of collision-free motion with mu<j> and/or r<j> (- or none: stdin)");
   tool.add_profile(/*required=*/false);
-  std::string output, signals_option;
-  double margin = 0;
+  std::string output, signals_option, rule = "rate";
+  double margin = 0, max_rise = 0;
   bool envelope = false, no_rest = false, reject_contact = false, dry_run = false, strict = false;
   detect::CalibrationOptions options;
   auto& app = tool.app();
   app.add_option("-o,--output", output, "write the updated profile to FILE instead of replacing -p")->type_name("FILE");
   app.add_option("--signal", signals_option, "mu, r or mu,r (default: those the streams have)")->type_name("LIST");
+  app.add_option("--rule", rule, "rate: the level crossed --false-alarm-rate times an hour (default); max: max + margin")
+      ->check(CLI::IsMember({"rate", "max"}));
+  app.add_option("--false-alarm-rate", options.false_alarms_per_hour,
+                 "false alarms per hour of each motion state the rate rule aims at (0.01)")
+      ->type_name("PER_HOUR");
+  app.add_option("--peak-window", options.peak_window, "seconds between independent excursions (0.2, as mo-detect --hold)")
+      ->type_name("SECONDS");
+  app.add_option("--max-rise", max_rise, "refuse, writing nothing, when a threshold would rise over FACTOR x the profile's")
+      ->type_name("FACTOR");
   auto* margin_option = app.add_option("--margin", margin, "safety margin in Nm added to the max")->type_name("NM");
   auto* percent_option = app.add_option("--margin-percent", options.margin_percent,
                                         "safety margin in percent of the max (default 10)")
@@ -36,6 +46,14 @@ int main(int argc, char** argv) {
       ->type_name("SECONDS");
   app.add_option("--skip", options.skip, "seconds at the start of the stream that do not count (0)")
       ->type_name("SECONDS");
+  std::string drift_list;
+  app.add_option("--rest-drift", drift_list, "drift times of the rest baseline to choose from, s (0.5,1,2; 0: frozen)")
+      ->type_name("LIST");
+  app.add_option("--contact-rise", options.contact_rise, "rise time of the slowest contact to see at rest, s (0.3)")
+      ->type_name("SECONDS");
+  std::string rest_signal = "r";
+  app.add_option("--rest-signal", rest_signal, "residual judged at rest with --signal mu: r (default, when present) or mu")
+      ->check(CLI::IsMember({"r", "mu"}));
   app.add_flag("--no-rest", no_rest, "no rest state: one threshold per joint for all rows");
   app.add_option("--contact-ratio", options.contact_ratio, "a max over RATIO x p99.9, or x the next peak, looks like a contact (2)")
       ->type_name("RATIO");
@@ -45,6 +63,9 @@ int main(int argc, char** argv) {
 
   return tool.run(argc, argv, [&] {
     if (*margin_option) options.margin_nm = margin;
+    options.rule = detect::parse_threshold_rule(rule);
+    if (!drift_list.empty()) options.rest_drift_candidates = cli::parse_number_list(drift_list, "--rest-drift");
+    if (max_rise != 0 && !(max_rise >= 1 && std::isfinite(max_rise))) throw cli::UsageError("--max-rise must be >= 1");
     options.envelope = envelope;
     options.rest_state = !no_rest;
     std::string why;
@@ -64,6 +85,7 @@ int main(int argc, char** argv) {
     std::vector<detect::Calibrator> calibrators;
     std::size_t joints = 0;
     std::uint64_t skipped = 0;
+    bool raw_at_rest = false;
     nlohmann::json logs = nlohmann::json::array();
     for (const auto& path : inputs) {
       stream::ReaderOptions reader_options;
@@ -90,15 +112,24 @@ int main(int argc, char** argv) {
       std::vector<std::size_t> idq;
       if (stream::count_joint_columns(in->columns(), "dq") >= joints)
         idq = stream::column_indices(in->columns(), stream::joint_columns("dq", joints), in->name());
+      // mu's rest rows are judged on r (see mo-detect(1)), when the streams carry it.
+      std::vector<std::size_t> ir;
+      if (rest_signal == "r" && stream::count_joint_columns(in->columns(), "r") >= joints)
+        ir = stream::column_indices(in->columns(), stream::joint_columns("r", joints), in->name());
+      if (logs.size() == 1) raw_at_rest = !ir.empty();
+      else if (raw_at_rest != !ir.empty())
+        throw Error(in->name() + ": some streams have r columns and others not; give --rest-signal mu");
       for (auto& c : calibrators) c.begin_stream(in->name(), !idq.empty());
-      std::vector<double> x(joints), dq(joints);
+      std::vector<double> x(joints), dq(joints), xr(joints);
       cli::Progress progress(tool.show_progress());
       auto where = [&] { return in->where(); };
       while (const double* row = in->next()) {
         for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
+        for (std::size_t j = 0; j < ir.size(); ++j) xr[j] = row[ir[j]];
         for (std::size_t s = 0; s < calibrators.size(); ++s) {
           for (std::size_t j = 0; j < joints; ++j) x[j] = row[columns[s][j]];
-          calibrators[s].add(row[it], x.data(), idq.empty() ? nullptr : dq.data(), where);
+          const bool raw = signals[s] == detect::Signal::mu && !ir.empty();
+          calibrators[s].add(row[it], x.data(), idq.empty() ? nullptr : dq.data(), where, raw ? xr.data() : nullptr);
         }
         if ((in->rows_read() & 0xffff) == 0) progress.update(in->name() + ": " + std::to_string(in->rows_read()) + " rows");
       }
@@ -109,11 +140,14 @@ int main(int argc, char** argv) {
     std::vector<detect::CalibrationResult> results;
     for (const auto& c : calibrators) results.push_back(c.result());
     bool contact = false;
+    std::vector<std::string> rises;
     for (const auto& r : results) {
       std::string report = detect::format_calibration_report(r);
       if (profile) {
         auto old = detect::thresholds_from_profile(profile->document, r.thresholds.signal, tool.profile());
         report += detect::format_threshold_changes(old ? &*old : nullptr, r.thresholds);
+        if (old && max_rise > 0)
+          for (auto& rise : detect::threshold_rises(*old, r.thresholds, max_rise)) rises.push_back(rise);
       }
       std::fwrite(report.data(), 1, report.size(), stdout);
       for (const auto& w : r.warnings) warn(w);
@@ -121,6 +155,11 @@ int main(int argc, char** argv) {
     }
     std::fflush(stdout);
     if (contact && reject_contact) throw Error("the calibration data look like they hold a contact; profile not written");
+    if (!rises.empty()) {
+      for (const auto& rise : rises) warn(rise);
+      throw Error(std::to_string(rises.size()) + " threshold" + (rises.size() == 1 ? "" : "s") +
+                  " would rise more than --max-rise allows; profile not written");
+    }
     if (!profile || dry_run) return cli::kSuccess;
 
     nlohmann::json document = profile->document;
@@ -131,6 +170,8 @@ int main(int argc, char** argv) {
       for (const auto& c : r.joints) maxima.push_back(c.moving.samples ? c.moving.max : c.rest_absolute.max);
       details["max_" + std::string(detect::signal_name(r.thresholds.signal))] = maxima;
     }
+    details["rule"] = rule;
+    if (options.rule == detect::ThresholdRule::rate) details["false_alarms_per_hour"] = options.false_alarms_per_hour;
     details["margin"] = options.margin_nm ? nlohmann::json{{"nm", *options.margin_nm}}
                                           : nlohmann::json{{"percent", options.margin_percent}};
     model::append_provenance(document, "mo-calibrate", details);

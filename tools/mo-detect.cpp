@@ -63,9 +63,12 @@ int main(int argc, char** argv) {
   app.add_option("--min-samples", options.min_samples, "consecutive rows over the threshold to fire (default 1)")
       ->type_name("N")
       ->check(CLI::PositiveNumber);
-  app.add_option("--release", options.release, "end when all joints are below this fraction of the threshold (0.8)")
+  app.add_option("--release", options.release, "a joint is back under its band or this fraction of its threshold (0.5)")
       ->type_name("FRACTION");
-  app.add_option("--hold", options.hold, "... for this many seconds (default 0.2)")->type_name("SECONDS");
+  app.add_option("--hold", options.hold, "an event ends when every joint has been back this long, s (0.2)")
+      ->type_name("SECONDS");
+  app.add_option("--join", options.join, "a joint firing this long after the onset starts a new event, s (0.25)")
+      ->type_name("SECONDS");
   auto* band_option = app.add_option("--onset-band", onset_band, "onset band as a fraction of the threshold")
                           ->type_name("FRACTION");
   app.add_option("--skip", options.skip, "seconds at the start of the stream that do not count (0)")
@@ -132,6 +135,14 @@ int main(int argc, char** argv) {
       if (needs_velocity && idq.empty())
         warn(in->name() + ": no dq1..dq" + std::to_string(n) +
              " columns: the rest state and velocity envelopes are off, constant moving thresholds throughout");
+      // Thresholds calibrated on r at rest need the r columns beside mu.
+      std::vector<std::size_t> irest;
+      if (thresholds.rest_raw && signal == detect::Signal::mu) {
+        if (stream::count_joint_columns(in->columns(), "r") < n)
+          throw Error(in->name() + ": the profile's thresholds judge rest on r1..r" + std::to_string(n) +
+                      ", which the stream does not have (mo-calibrate --rest-signal mu calibrates rest on mu)");
+        irest = stream::column_indices(in->columns(), stream::joint_columns("r", n), in->name());
+      }
       detect::Detector detector(thresholds, options, !idq.empty());
 
       std::unique_ptr<stream::Writer> passed;
@@ -158,7 +169,7 @@ int main(int argc, char** argv) {
       if (!command.empty()) runner.emplace(command);
 
       detect::LogHistogram latency(1e-3, 1e7, 200);
-      std::vector<double> x(n), dq(n), out(in->columns().size() + 1);
+      std::vector<double> x(n), dq(n), x_rest(n), out(in->columns().size() + 1);
       double t_prev = -INFINITY;
       bool interrupted = false;
       using clock = std::chrono::steady_clock;
@@ -180,11 +191,12 @@ int main(int argc, char** argv) {
         t_prev = t;
         for (std::size_t j = 0; j < n; ++j) x[j] = row[ix[j]];
         for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
-        if (const detect::Event* e = detector.step(t, x.data(), dq.data())) {
-          if (events) events->write(*e);
-          if (e->kind == detect::EventKind::onset) {
+        for (std::size_t j = 0; j < irest.size(); ++j) x_rest[j] = row[irest[j]];
+        for (const detect::Event& e : detector.step(t, x.data(), dq.data(), irest.empty() ? nullptr : x_rest.data())) {
+          if (events) events->write(e);
+          if (e.kind == detect::EventKind::onset) {
             ++collisions;
-            if (runner) runner->launch(*e);
+            if (runner) runner->launch(e);
           }
         }
         if (passed) {

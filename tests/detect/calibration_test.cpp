@@ -180,6 +180,7 @@ TEST(Calibrator, ThresholdIsMaxPlusMarginOverAllStreams) {
   }
   const double max = *std::max_element(all.begin(), all.end());
   CalibrationOptions o;
+  o.rule = ThresholdRule::max;
   o.margin_nm = 0.25;
   Calibrator nm(Signal::mu, 1, o);
   feed(nm, a, "a.csv");
@@ -199,6 +200,7 @@ TEST(Calibrator, ThresholdIsMaxPlusMarginOverAllStreams) {
   EXPECT_EQ(r.joints[0].moving.where_max, std::string(from_a ? "a.csv" : "b.csv") + ":" + std::to_string(k + 2));
 
   CalibrationOptions p;
+  p.rule = ThresholdRule::max;
   p.margin_percent = 20;
   Calibrator percent(Signal::mu, 1, p);
   feed(percent, a, "a.csv");
@@ -215,13 +217,30 @@ TEST(Calibrator, LoneExcursionLooksLikeAContact) {
   feed(clean, r, "clean");
   EXPECT_FALSE(clean.result().any_contact());
   for (int k = 12000; k < 12050; ++k) r.x[k] += 6.0 * std::sin(M_PI * (k - 12000) / 50.0);  // a 6 Nm bump
-  Calibrator bumped(Signal::mu, 1, {});
+  CalibrationOptions paper;
+  paper.rule = ThresholdRule::max;
+  Calibrator bumped(Signal::mu, 1, paper);
   feed(bumped, r, "bumped");
   const auto result = bumped.result();
   EXPECT_TRUE(result.any_contact());
   ASSERT_EQ(result.warnings.size(), 1u);
   EXPECT_NE(result.warnings[0].find("looks like a contact"), std::string::npos);
   EXPECT_NEAR(result.joints[0].moving.t_max, 12.025, 0.01);
+
+  // The rate rule names the bump's row as an outlier and leaves it out: the threshold stays
+  // what the clean data give, where the paper's rule takes the bump's 6 Nm.
+  Calibrator robust(Signal::mu, 1, {});
+  feed(robust, r, "bumped");
+  const auto rate = robust.result();
+  EXPECT_TRUE(rate.any_contact());
+  ASSERT_EQ(rate.warnings.size(), 1u);
+  EXPECT_NE(rate.warnings[0].find("is an outlier, left out of the threshold"), std::string::npos);
+  const auto k_max = std::max_element(r.x.begin(), r.x.end(), [](double a, double b) { return std::fabs(a) < std::fabs(b); }) - r.x.begin();
+  EXPECT_NE(rate.warnings[0].find("bumped:" + std::to_string(k_max + 2) + " "), std::string::npos) << rate.warnings[0];
+  ASSERT_EQ(rate.joints[0].moving_basis.tail.outliers.size(), 1u);
+  EXPECT_NEAR(rate.thresholds.joints[0].moving, clean.result().thresholds.joints[0].moving,
+              0.02 * clean.result().thresholds.joints[0].moving);
+  EXPECT_GT(result.thresholds.joints[0].moving, 6.0);
 }
 
 TEST(Calibrator, RestRowsGetTheirOwnThresholdOnTheDeviationFromTheBaseline) {
@@ -238,6 +257,8 @@ TEST(Calibrator, RestRowsGetTheirOwnThresholdOnTheDeviationFromTheBaseline) {
     r.x.push_back(stopped ? 3.0 + small(rng) : noise(rng));
   }
   CalibrationOptions o;
+  o.rule = ThresholdRule::max;
+  o.rest_drift_candidates = {0};  // frozen: the mean over the settling rows
   o.margin_nm = 0.1;
   o.rest_rule = RestRule{0.01, 0.25, 0};  // 256 rows
   Calibrator c(Signal::mu, 1, o);
@@ -287,6 +308,8 @@ TEST(Calibrator, PicksTheAbsoluteRestStatisticWhenItIsTighter) {
     r.x.push_back(k <= 256 ? 0.9 : 0.9 * std::cos(2 * M_PI * (k - 256) / 1024.0));
   }
   CalibrationOptions o;
+  o.rule = ThresholdRule::max;
+  o.rest_drift_candidates = {0};
   o.margin_nm = 0.1;
   o.rest_rule = RestRule{0.01, 0.25, 0};
   Calibrator c(Signal::mu, 1, o);
@@ -402,7 +425,7 @@ TEST(Calibrator, NoFalseAlarmOnItsOwnDataInAnyConfiguration) {
         Detector detector(result.thresholds, d, true);
         int events = 0;
         for (std::size_t k = 0; k < day.t.size(); ++k)
-          if (detector.step(day.t[k], &day.x[k], &day.dq[k])) ++events;
+          events += static_cast<int>(detector.step(day.t[k], &day.x[k], &day.dq[k]).size());
         EXPECT_EQ(events, 0) << "envelope " << envelope << " min rows " << min_rows << " states " << states;
       }
 }
@@ -434,8 +457,8 @@ TEST(Calibrator, RestStateSeesASmallPushOnAHoldThatTheSingleThresholdMisses) {
     Detector detector(thresholds, {}, true);
     std::vector<Event> onsets;
     for (std::size_t k = 0; k < pushed.t.size(); ++k)
-      if (const Event* e = detector.step(pushed.t[k], &pushed.x[k], &pushed.dq[k]))
-        if (e->kind == EventKind::onset) onsets.push_back(*e);
+      for (const Event& e : detector.step(pushed.t[k], &pushed.x[k], &pushed.dq[k]))
+        if (e.kind == EventKind::onset) onsets.push_back(e);
     if (states) {
       ASSERT_EQ(onsets.size(), 1u);
       EXPECT_DOUBLE_EQ(onsets[0].t_detect, pushed.t[at]);
@@ -454,6 +477,7 @@ TEST(Calibrator, SkipLeavesTheStartOfEveryStreamOut) {
     r.x.push_back(k < 100 ? 5.0 : 0.9 * std::sin(k * 0.37));
   }
   CalibrationOptions o;
+  o.rule = ThresholdRule::max;
   o.margin_nm = 0;
   o.skip = 100 / 1024.0;
   Calibrator c(Signal::mu, 1, o);

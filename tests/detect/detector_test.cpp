@@ -31,7 +31,7 @@ Run run(Detector& d, int rows, X&& x_of, V&& dq_of, bool finish = true) {
       x[j] = x_of(k, static_cast<int>(j));
       dq[j] = dq_of(k, static_cast<int>(j));
     }
-    if (const Event* e = d.step(k * kDt, x.data(), dq.data())) out.rows.push_back(*e);
+    for (const Event& e : d.step(k * kDt, x.data(), dq.data())) out.rows.push_back(e);
     out.links.push_back(d.open_link());
   }
   if (finish)
@@ -216,7 +216,7 @@ TEST(Detector, NoisyStreamWithInjectedPulsesFindsEveryPulseAtItsOnset) {
         if (k >= p.start && k < p.start + 300 && j < p.link) x[j] += 2.0;
       history[j][k] = x[j];
     }
-    if (const Event* e = d.step(k * kDt, x.data(), dq.data())) (e->kind == EventKind::onset ? onsets : ends).push_back(*e);
+    for (const Event& e : d.step(k * kDt, x.data(), dq.data())) (e.kind == EventKind::onset ? onsets : ends).push_back(e);
   }
   ASSERT_EQ(onsets.size(), pulses.size());
   ASSERT_EQ(ends.size(), pulses.size());

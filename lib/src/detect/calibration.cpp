@@ -240,7 +240,21 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   if (!(envelope_bin > 0 && std::isfinite(envelope_bin))) return bad("envelope bin width must be > 0");
   if (!(skip >= 0 && std::isfinite(skip))) return bad("skip must be >= 0 s");
   if (!(contact_ratio > 1 && std::isfinite(contact_ratio))) return bad("contact ratio must be > 1");
+  if (!(false_alarms_per_hour > 0 && std::isfinite(false_alarms_per_hour)))
+    return bad("false-alarm rate must be > 0 per hour");
+  if (!(peak_window > 0 && std::isfinite(peak_window))) return bad("peak window must be > 0 s");
+  if (!tail.IsValid(why)) return false;
+  if (rest_drift_candidates.empty()) return bad("need at least one rest drift time");
+  for (double d : rest_drift_candidates)
+    if (!(d >= 0 && std::isfinite(d))) return bad("rest drift times must be >= 0 s");
+  if (!(contact_rise > 0 && std::isfinite(contact_rise))) return bad("contact rise time must be > 0 s");
   return true;
+}
+
+ThresholdRule parse_threshold_rule(std::string_view name) {
+  if (name == "rate") return ThresholdRule::rate;
+  if (name == "max") return ThresholdRule::max;
+  throw Error("unknown threshold rule '" + std::string(name) + "' (rate or max)");
 }
 
 bool CalibrationResult::any_contact() const {
@@ -254,8 +268,13 @@ Calibrator::Calibrator(Signal signal, std::size_t joints, CalibrationOptions opt
   std::string why;
   if (!options_.IsValid(&why)) throw Error(why);
   if (joints == 0) throw Error("no joints to calibrate");
+  const std::size_t drifts = options_.rest_drift_candidates.size();
   for (std::size_t j = 0; j < joints; ++j)
-    joints_.push_back(Joint{RestTracker(options_.rest_rule), {}, {}, {}, {}, EnvelopeFitter(options_.envelope_bin)});
+    joints_.push_back(Joint{RestTracker(options_.rest_rule), MagnitudeStats(options_.peak_window),
+                            MagnitudeStats(options_.peak_window),
+                            std::vector<MagnitudeStats>(drifts, MagnitudeStats(options_.peak_window)),
+                            std::vector<DriftingBaseline>(drifts), false, MagnitudeStats(options_.peak_window),
+                            EnvelopeFitter(options_.envelope_bin)});
 }
 
 void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
@@ -263,8 +282,9 @@ void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
   for (auto& J : joints_) {
     J.moving.begin_stream();
     J.slow.begin_stream();
-    J.rest.begin_stream();
+    for (auto& r : J.rest) r.begin_stream();
     J.rest_absolute.begin_stream();
+    J.was_rest = false;
   }
   have_velocity_ = have_velocity_ && have_velocity;
   t_prev_ = kNaN;
@@ -278,8 +298,12 @@ CalibrationResult Calibrator::result() const {
   out.streams = streams_;
   out.have_velocity = have_velocity_;
   out.states = options_.rest_state;
+  out.rule = options_.rule;
+  out.rest_drift_candidates = options_.rest_drift_candidates;
+  out.false_alarms_per_hour = options_.false_alarms_per_hour;
   out.thresholds.signal = signal_;
   out.thresholds.rest_rule = options_.rest_rule;
+  out.thresholds.rest_raw = rest_raw_ && signal_ == Signal::mu;
   if (options_.margin_nm) out.thresholds.margin_nm = *options_.margin_nm;
   else out.thresholds.margin_percent = options_.margin_percent;
   auto with_margin = [&](double x) {
@@ -291,10 +315,24 @@ CalibrationResult Calibrator::result() const {
   else if (!have_velocity_)
     out.notes.push_back("a stream without dq columns: its rows count as moving (no slow or rest state" +
                         std::string(options_.envelope ? ", no envelope" : "") + " from it)");
-  auto contact = [&](const MagnitudeSummary& s) {
+  auto contact = [&](const MagnitudeSummary& s, const ThresholdBasis& basis) {
+    if (options_.rule == ThresholdRule::rate && basis.tail.ok) return !basis.tail.outliers.empty();
     const bool above_peaks = s.typical_peak > 0 && s.max > options_.contact_ratio * s.typical_peak;
     const bool above_quantile = s.seconds >= 1000 && s.max > options_.contact_ratio * s.p999;
     return s.samples >= 1000 && (above_peaks || above_quantile);
+  };
+  // The threshold of one state from its rows, and how it was decided.
+  auto decide = [&](const MagnitudeStats& stats, const MagnitudeSummary& s, ThresholdBasis* basis) {
+    basis->tail = fit_tail(stats.tail().largest(), stats.tail().peaks(), stats.tail().seconds(), options_.tail);
+    double threshold = with_margin(s.max);
+    if (options_.rule == ThresholdRule::rate && basis->tail.ok) {
+      const double floor = with_margin(basis->tail.largest_kept);
+      const double level = basis->tail.tail.level(options_.false_alarms_per_hour);
+      basis->from_tail = level > floor;
+      threshold = std::max(level, floor);
+    }
+    if (basis->tail.ok) basis->per_hour = basis->tail.tail.rate_over(threshold);
+    return threshold;
   };
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const auto& J = joints_[j];
@@ -303,7 +341,7 @@ CalibrationResult Calibrator::result() const {
     JointCalibration c;
     c.moving = J.moving.summary();
     c.slow = J.slow.summary();
-    c.rest = J.rest.summary();
+    c.rest = J.rest.front().summary();
     c.rest_absolute = J.rest_absolute.summary();
     if (c.moving.samples + c.slow.samples + c.rest.samples == 0) throw Error(name + ": no finite sample to calibrate on");
     JointThreshold T;
@@ -317,12 +355,32 @@ CalibrationResult Calibrator::result() const {
       // the settled baseline (static friction held at rest cancels out), or the plain |x|
       // (better when the residual moves at rest, e.g. a controller ramping torque against
       // stiction before a breakaway, while the friction model holds its level).
-      const double deviation = with_margin(c.rest.max), absolute = with_margin(c.rest_absolute.max);
-      T.rest_absolute = absolute < deviation;
+      // Among the drift times, the one that sees the smallest contact of the rise time aimed at.
+      ThresholdBasis deviation_basis, absolute_basis;
+      double deviation = INFINITY, best_cost = INFINITY;
+      for (std::size_t d = 0; d < J.rest.size(); ++d) {
+        ThresholdBasis basis;
+        const MagnitudeSummary summary = J.rest[d].summary();
+        const double threshold = decide(J.rest[d], summary, &basis);
+        const double drift = options_.rest_drift_candidates[d];
+        const double cost = threshold / drift_gain(drift, options_.contact_rise);
+        c.rest_drift_costs.emplace_back(threshold, cost);
+        if (cost < best_cost) {
+          best_cost = cost;
+          deviation = threshold;
+          deviation_basis = basis;
+          c.rest = summary;
+          c.rest_drift = drift;
+        }
+      }
+      const double absolute = decide(J.rest_absolute, c.rest_absolute, &absolute_basis);
+      T.rest_absolute = absolute < best_cost;
+      T.rest_drift = T.rest_absolute ? 0 : c.rest_drift;
       const MagnitudeSummary& chosen = T.rest_absolute ? c.rest_absolute : c.rest;
+      c.rest_basis = T.rest_absolute ? absolute_basis : deviation_basis;
       T.rest = T.rest_absolute ? absolute : deviation;
       T.rest_band = chosen.p99;
-      c.rest_contact = contact(chosen);
+      c.rest_contact = contact(chosen, c.rest_basis);
     } else if (c.rest.samples > 0) {
       slow.merge(J.rest_absolute);
       out.notes.push_back(joint + ": " + std::to_string(c.rest.samples) + " rest rows (fewer than " +
@@ -330,9 +388,9 @@ CalibrationResult Calibrator::result() const {
     }
     const MagnitudeSummary slow_all = slow.summary();
     if (slow_all.samples >= options_.min_state_samples) {
-      T.slow = with_margin(slow_all.max);
+      T.slow = decide(slow, slow_all, &c.slow_basis);
       T.slow_band = slow_all.p99;
-      c.slow_contact = contact(slow_all);
+      c.slow_contact = contact(slow_all, c.slow_basis);
     } else if (slow_all.samples > 0) {
       moving.merge(slow);
       // The envelope must cover these rows too: a point at |dq| = 0 with their largest |x|
@@ -343,9 +401,9 @@ CalibrationResult Calibrator::result() const {
     }
     const MagnitudeSummary moving_all = moving.summary();
     if (moving_all.samples > 0) {
-      T.moving = with_margin(moving_all.max);
+      T.moving = decide(moving, moving_all, &c.moving_basis);
       T.band = moving_all.p99;
-      c.moving_contact = contact(moving_all);
+      c.moving_contact = contact(moving_all, c.moving_basis);
     } else {
       // Never moved: the moving rule still needs a value (it judges rows with unknown speed).
       T.moving = std::max(T.slow.value_or(0), T.rest_absolute ? T.rest.value_or(0) : with_margin(c.rest_absolute.max));
@@ -368,15 +426,26 @@ CalibrationResult Calibrator::result() const {
         }
       }
     }
-    auto warn_contact = [&](const char* state, const MagnitudeSummary& s) {
+    auto warn_contact = [&](const char* state, const MagnitudeSummary& s, const ThresholdBasis& basis) {
+      if (options_.rule == ThresholdRule::rate && basis.tail.ok) {
+        for (const auto& o : basis.tail.outliers)
+          out.warnings.push_back(name + " " + state + ": " + fmt(o.m) + " Nm at " + o.where + " (t=" + fmt(o.t) +
+                                 " s) is an outlier, left out of the threshold: the tail of the " +
+                                 std::to_string(basis.tail.tail.peaks) + " largest other peaks reaches it with " +
+                                 "probability under " + fmt(options_.tail.outlier_probability, "%.3g") +
+                                 " (a glitch, an abrupt stop, or a contact?)");
+        return;
+      }
       out.warnings.push_back(name + " " + state + ": max " + fmt(s.max) + " Nm at " + s.where_max + " (t=" +
                              fmt(s.t_max) + " s) is " + fmt(s.max / s.p999, "%.3g") + " times p99.9 and " +
                              (s.typical_peak > 0 ? fmt(s.max / s.typical_peak, "%.3g") : std::string("?")) +
                              " times the typical peak: looks like a contact, not noise");
     };
-    if (c.moving_contact) warn_contact("moving", moving_all);
-    if (c.slow_contact) warn_contact("slow", slow_all);
-    if (c.rest_contact) warn_contact(T.rest_absolute ? "at rest" : "at rest (deviation)", T.rest_absolute ? c.rest_absolute : c.rest);
+    if (c.moving_contact) warn_contact("moving", moving_all, c.moving_basis);
+    if (c.slow_contact) warn_contact("slow", slow_all, c.slow_basis);
+    if (c.rest_contact)
+      warn_contact(T.rest_absolute ? "at rest" : "at rest (deviation)", T.rest_absolute ? c.rest_absolute : c.rest,
+                   c.rest_basis);
     if (!(T.moving > 0))
       throw Error(name + ": the residual is 0 on every row; a percent margin gives no threshold (use --margin in Nm)");
     out.thresholds.joints.push_back(T);
@@ -391,6 +460,10 @@ std::string format_calibration_report(const CalibrationResult& r) {
   out += "# signal " + sig + ": " + std::to_string(r.streams.size()) + " stream" + (r.streams.size() == 1 ? "" : "s") +
          ", " + std::to_string(r.rows) + " rows; margin ";
   out += r.thresholds.margin_nm ? fmt(*r.thresholds.margin_nm) + " Nm" : fmt(r.thresholds.margin_percent.value_or(0)) + "%";
+  if (r.rule == ThresholdRule::rate)
+    out += "; rule rate: " + fmt(r.false_alarms_per_hour, "%.3g") + " false alarms per hour of each state";
+  else
+    out += "; rule max";
   if (r.states)
     out += "; slow when |dq| < " + fmt(r.thresholds.rest_rule.velocity) + " rad/s (and " +
            fmt(r.thresholds.rest_rule.hangover) + " s after), at rest after " + fmt(r.thresholds.rest_rule.time) +
@@ -398,24 +471,54 @@ std::string format_calibration_report(const CalibrationResult& r) {
   else
     out += "; no motion states\n";
   char line[512];
-  std::snprintf(line, sizeof line, "%-6s %-5s %-8s %10s %10s %10s %10s %10s %10s %10s %10s  %s\n", "signal", "joint",
-                "state", "samples", "seconds", "rms", "p99", "p99.9", "max", "t_max", "threshold", "where");
+  std::snprintf(line, sizeof line, "%-6s %-5s %-8s %10s %10s %10s %10s %10s %10s %10s %10s %10s  %s\n", "signal",
+                "joint", "state", "samples", "seconds", "rms", "p99", "p99.9", "max", "t_max", "threshold", "fa_per_h",
+                "where");
   out += line;
   for (std::size_t j = 0; j < r.joints.size(); ++j) {
     const auto& c = r.joints[j];
     const auto& T = r.thresholds.joints[j];
-    auto row = [&](const char* state, const MagnitudeSummary& s, std::string threshold) {
+    auto row = [&](const char* state, const MagnitudeSummary& s, std::string threshold, const ThresholdBasis* basis) {
       if (s.samples == 0) return;
-      std::snprintf(line, sizeof line, "%-6s %-5zu %-8s %10llu %10s %10s %10s %10s %10s %10s %10s  %s\n", sig.c_str(),
-                    j + 1, state, static_cast<unsigned long long>(s.samples), fmt(s.seconds).c_str(),
+      const std::string rate = basis && std::isfinite(basis->per_hour) ? fmt(basis->per_hour, "%.3g") : "-";
+      std::snprintf(line, sizeof line, "%-6s %-5zu %-8s %10llu %10s %10s %10s %10s %10s %10s %10s %10s  %s\n",
+                    sig.c_str(), j + 1, state, static_cast<unsigned long long>(s.samples), fmt(s.seconds).c_str(),
                     fmt(s.rms).c_str(), fmt(s.p99).c_str(), fmt(s.p999).c_str(), fmt(s.max).c_str(),
-                    fmt(s.t_max).c_str(), threshold.c_str(), s.where_max.c_str());
+                    fmt(s.t_max).c_str(), threshold.c_str(), rate.c_str(), s.where_max.c_str());
       out += line;
     };
-    row("moving", c.moving, fmt(T.moving));
-    row("slow", c.slow, T.slow ? fmt(*T.slow) : "-");
-    row("rest", c.rest, T.rest && !T.rest_absolute ? fmt(*T.rest) : "-");
-    row("rest_abs", c.rest_absolute, T.rest && T.rest_absolute ? fmt(*T.rest) : "-");
+    row("moving", c.moving, fmt(T.moving), &c.moving_basis);
+    row("slow", c.slow, T.slow ? fmt(*T.slow) : "-", T.slow ? &c.slow_basis : nullptr);
+    row("rest", c.rest, T.rest && !T.rest_absolute ? fmt(*T.rest) : "-", T.rest && !T.rest_absolute ? &c.rest_basis : nullptr);
+    row("rest_abs", c.rest_absolute, T.rest && T.rest_absolute ? fmt(*T.rest) : "-",
+        T.rest && T.rest_absolute ? &c.rest_basis : nullptr);
+  }
+  // The tails behind the thresholds: what a reader needs to judge the extrapolation.
+  for (std::size_t j = 0; j < r.joints.size(); ++j) {
+    const auto& c = r.joints[j];
+    auto tail_line = [&](const char* state, const ThresholdBasis& b) {
+      if (!b.tail.ok) {
+        if (!b.tail.why.empty() && r.rule == ThresholdRule::rate)
+          out += "# joint " + std::to_string(j + 1) + " " + state + " tail: " + b.tail.why + "; max + margin\n";
+        return;
+      }
+      const ParetoTail& p = b.tail.tail;
+      out += "# joint " + std::to_string(j + 1) + " " + state + " tail: " + std::to_string(p.peaks) + " peaks over " +
+             fmt(p.u0, "%.4g") + " Nm in " + fmt(b.tail.seconds / 3600, "%.3g") + " h (" + fmt(p.rate, "%.3g") +
+             " per h), sigma " + fmt(p.sigma, "%.3g") + " Nm, xi " + fmt(p.xi, "%.3g") + "; threshold from " +
+             (b.from_tail ? "the tail" : "the largest peak + margin") + "\n";
+    };
+    if (r.thresholds.joints[j].rest && !r.thresholds.joints[j].rest_absolute && !c.rest_drift_costs.empty()) {
+      out += "# joint " + std::to_string(j + 1) + " rest baseline: follows drift at " + fmt(c.rest_drift) + " s (" +
+             "drift time: threshold, smallest contact seen";
+      for (std::size_t d = 0; d < c.rest_drift_costs.size() && d < r.rest_drift_candidates.size(); ++d)
+        out += (d ? "; " : ": ") + fmt(r.rest_drift_candidates[d]) + " s: " + fmt(c.rest_drift_costs[d].first, "%.3g") +
+               ", " + fmt(c.rest_drift_costs[d].second, "%.3g") + " Nm";
+      out += ")\n";
+    }
+    tail_line("moving", c.moving_basis);
+    if (r.thresholds.joints[j].slow) tail_line("slow", c.slow_basis);
+    if (r.thresholds.joints[j].rest) tail_line("rest", c.rest_basis);
   }
   for (std::size_t j = 0; j < r.joints.size(); ++j) {
     const auto& c = r.joints[j];
@@ -452,6 +555,23 @@ std::string format_threshold_changes(const Thresholds* old, const Thresholds& up
     line("moving", a.moving, b.moving);
     line("slow", a.slow, b.slow);
     line("rest", a.rest, b.rest);
+  }
+  return out;
+}
+
+std::vector<std::string> threshold_rises(const Thresholds& old, const Thresholds& updated, double factor) {
+  std::vector<std::string> out;
+  if (old.joints.size() != updated.joints.size()) return out;
+  const std::string sig(signal_name(updated.signal));
+  for (std::size_t j = 0; j < updated.joints.size(); ++j) {
+    auto check = [&](const char* state, std::optional<double> before, std::optional<double> after) {
+      if (!before || !after || !(*before > 0) || !(*after > factor * *before)) return;
+      out.push_back(sig + std::to_string(j + 1) + " " + state + " " + fmt(*before) + " -> " + fmt(*after) + " Nm, " +
+                    fmt(*after / *before, "%.3g") + " times");
+    };
+    check("moving", old.joints[j].moving, updated.joints[j].moving);
+    check("slow", old.joints[j].slow, updated.joints[j].slow);
+    check("rest", old.joints[j].rest, updated.joints[j].rest);
   }
   return out;
 }

@@ -22,6 +22,7 @@ bool DetectorOptions::IsValid(std::string* why) const {
   if (!(hold >= 0 && std::isfinite(hold))) return bad("hold must be >= 0 s");
   if (onset_band && !(*onset_band > 0 && *onset_band <= 1)) return bad("onset band must be in (0, 1]");
   if (!(skip >= 0 && std::isfinite(skip))) return bad("skip must be >= 0 s");
+  if (!(join >= 0 && std::isfinite(join))) return bad("join must be >= 0 s");
   return true;
 }
 
@@ -34,21 +35,27 @@ Detector::Detector(Thresholds thresholds, DetectorOptions options, bool have_vel
   for (auto& J : joints_) J.tracker = RestTracker(thresholds_.rest_rule);
   fires_.assign(joints_.size(), 0);
   quiet_.assign(joints_.size(), 0);
+  crossing_.assign(joints_.size(), 0);
   bounds_.assign(joints_.size(), Bounds{});
 }
 
-const Event* Detector::step(double t, const double* x, const double* dq) {
+std::span<const Event> Detector::step(double t, const double* x, const double* dq, const double* x_rest) {
   if (rows_ == 0) t_first_ = t;
   ++rows_;
   t_last_ = t;
+  out_count_ = 0;
   const bool judged = !(t - t_first_ < options_.skip);
   bool any_fires = false, all_quiet = true;
+  bool arm_still = have_velocity_;
+  if (have_velocity_)
+    for (std::size_t j = 0; j < joints_.size(); ++j) arm_still = arm_still && std::fabs(dq[j]) < thresholds_.rest_rule.velocity;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     Joint& J = joints_[j];
     const JointThreshold& T = thresholds_.joints[j];
     const double v = have_velocity_ ? dq[j] : kNaN;
     MotionState state = MotionState::moving;
-    if (have_velocity_ && (T.rest || T.slow)) state = J.tracker.update(t, v, x[j], !(open_ && J.fired));
+    const double* judged_at_rest = thresholds_.rest_raw && x_rest ? x_rest : x;
+    if (have_velocity_ && (T.rest || T.slow)) state = J.tracker.update(t, v, judged_at_rest[j], !(open_ && J.fired), arm_still);
     // A state without a threshold of its own falls to the next rule down, as in calibration.
     if (state == MotionState::rest && !T.rest) state = MotionState::slow;
     if (state == MotionState::slow && !T.slow) state = MotionState::moving;
@@ -59,7 +66,10 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
       band = T.slow_band;
     } else if (state == MotionState::rest) {
       ++J.rest_rows;
-      stat = T.rest_absolute ? std::fabs(x[j]) : std::fabs(x[j] - J.tracker.baseline());
+      const double xr = judged_at_rest[j];
+      if (!J.was_rest) J.baseline.start(t, J.tracker.baseline());
+      stat = T.rest_absolute ? std::fabs(xr) : std::fabs(xr - J.baseline.value());
+      J.baseline.update(t, xr, T.rest_drift);
       threshold = *T.rest;
       band = T.rest_band;
     } else {
@@ -69,7 +79,8 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
         threshold = T.envelope->a + T.envelope->b * std::fabs(v);
       band = T.band;
     }
-    const double centre = state == MotionState::rest && !T.rest_absolute ? J.tracker.baseline() : 0.0;
+    J.was_rest = state == MotionState::rest;
+    const double centre = state == MotionState::rest && !T.rest_absolute ? J.baseline.value() : 0.0;
     bounds_[j] = Bounds{centre - threshold, centre + threshold, state == MotionState::rest};
     if (options_.onset_band) band = *options_.onset_band * threshold;
     else if (!(band > 0) || band >= threshold) band = 0.5 * threshold;
@@ -85,35 +96,32 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
     }
     J.over = judged && stat > threshold ? J.over + 1 : 0;
     fires_[j] = J.over >= options_.min_samples;
-    quiet_[j] = !(stat >= options_.release * threshold);
+    // The row on which a firing run begins; only an armed joint's run is a new contact.
+    crossing_[j] = J.over == options_.min_samples && J.armed;
+    quiet_[j] = !(stat >= std::max(band, options_.release * threshold));  // NaN counts as back
+    if (!quiet_[j]) J.back_since = kNaN;
+    else if (std::isnan(J.back_since)) J.back_since = t;
+    if (crossing_[j]) J.armed = false;
+    else if (quiet_[j] && t - J.back_since >= options_.hold) J.armed = true;
     any_fires = any_fires || fires_[j];
     all_quiet = all_quiet && quiet_[j];
   }
 
   if (!open_) {
-    if (!any_fires) return nullptr;
-    open_ = true;
-    quiet_run_ = false;
-    current_ = Event{};
-    current_.id = next_id_++;
-    current_.kind = EventKind::onset;
-    current_.t_detect = t;
-    current_.t_onset_estimate = t;
-    current_.t_end = kNaN;
-    current_.peaks.assign(joints_.size(), 0.0);
-    for (std::size_t j = 0; j < joints_.size(); ++j) {
-      Joint& J = joints_[j];
-      J.fired = fires_[j];
-      const double magnitude = std::fabs(x[j]);
-      current_.peaks[j] = std::isnan(magnitude) ? J.run_peak : std::max(J.run_peak, magnitude);
-      if (J.fired) {
-        current_.joints.push_back(static_cast<int>(j + 1));
-        current_.link = static_cast<int>(j + 1);
-        if (!J.in_band) current_.t_onset_estimate = std::min(current_.t_onset_estimate, J.rise_start);
-      }
-    }
-    out_ = current_;
-    return &out_;
+    if (!any_fires) return {};
+    open_event(t, x);
+    return {out_, out_count_};
+  }
+
+  // A new contact while the event is open: a joint of the event firing again after it fell
+  // back, or a joint firing for the first time long after the event began.
+  bool next = false;
+  for (std::size_t j = 0; j < joints_.size(); ++j)
+    if (crossing_[j] && (joints_[j].fired || t - current_.t_detect > options_.join)) next = true;
+  if (next) {
+    close_event(t, EndReason::next);
+    open_event(t, x);
+    return {out_, out_count_};
   }
 
   for (std::size_t j = 0; j < joints_.size(); ++j) {
@@ -129,31 +137,59 @@ const Event* Detector::step(double t, const double* x, const double* dq) {
   }
   if (!all_quiet) {
     quiet_run_ = false;
-    return nullptr;
+    return {};
   }
   if (!quiet_run_) {
     quiet_run_ = true;
     quiet_since_ = t;
   }
-  if (t - quiet_since_ < options_.hold) return nullptr;
+  if (t - quiet_since_ < options_.hold) return {};
+  close_event(quiet_since_, EndReason::release);
+  return {out_, out_count_};
+}
+
+void Detector::open_event(double t, const double* x) {
+  open_ = true;
+  quiet_run_ = false;
+  current_ = Event{};
+  current_.id = next_id_++;
+  current_.kind = EventKind::onset;
+  current_.t_detect = t;
+  current_.t_onset_estimate = t;
+  current_.t_end = kNaN;
+  current_.peaks.assign(joints_.size(), 0.0);
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    Joint& J = joints_[j];
+    J.fired = fires_[j];
+    if (J.fired) J.armed = false;
+    const double magnitude = std::fabs(x[j]);
+    current_.peaks[j] = std::isnan(magnitude) ? J.run_peak : std::max(J.run_peak, magnitude);
+    if (J.fired) {
+      current_.joints.push_back(static_cast<int>(j + 1));
+      current_.link = static_cast<int>(j + 1);
+      if (!J.in_band) current_.t_onset_estimate = std::min(current_.t_onset_estimate, J.rise_start);
+    }
+  }
+  // The onset estimate of a contact that follows another cannot reach back into it.
+  if (out_count_ > 0) current_.t_onset_estimate = std::max(current_.t_onset_estimate, out_[0].t_end);
+  out_[out_count_++] = current_;
+}
+
+void Detector::close_event(double t_end, EndReason reason) {
   open_ = false;
   for (auto& J : joints_) J.fired = false;
-  out_ = current_;
-  out_.kind = EventKind::end;
-  out_.t_end = quiet_since_;
-  out_.ended_by = EndReason::release;
-  return &out_;
+  Event& e = out_[out_count_++];
+  e = current_;
+  e.kind = EventKind::end;
+  e.t_end = t_end;
+  e.ended_by = reason;
 }
 
 const Event* Detector::finish(EndReason reason) {
   if (!open_) return nullptr;
-  open_ = false;
-  for (auto& J : joints_) J.fired = false;
-  out_ = current_;
-  out_.kind = EventKind::end;
-  out_.t_end = t_last_;
-  out_.ended_by = reason;
-  return &out_;
+  out_count_ = 0;
+  close_event(t_last_, reason);
+  return &out_[0];
 }
 
 }  // namespace momentum::detect

@@ -50,6 +50,7 @@ std::string_view kind_name(EventKind kind) { return kind == EventKind::onset ? "
 std::string_view end_reason_name(EndReason reason) {
   switch (reason) {
     case EndReason::release: return "release";
+    case EndReason::next: return "next";
     case EndReason::eof: return "eof";
     case EndReason::signal: return "signal";
     case EndReason::none: break;
@@ -263,6 +264,7 @@ std::optional<Event> EventReader::next() {
   if (e.kind == EventKind::end && c_ended_by_ != npos) {
     const std::string_view by = trim(fields[c_ended_by_]);
     if (by == "release") e.ended_by = EndReason::release;
+    else if (by == "next") e.ended_by = EndReason::next;
     else if (by == "eof") e.ended_by = EndReason::eof;
     else if (by == "signal") e.ended_by = EndReason::signal;
     else if (!by.empty()) throw fail("bad ended_by '" + std::string(by) + "'");

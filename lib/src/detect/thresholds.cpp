@@ -72,6 +72,7 @@ bool Thresholds::IsValid(std::string* why) const {
     if (!(J.slow_band >= 0 && std::isfinite(J.slow_band))) return bad("slow band must be >= 0");
     if (J.rest && !positive(*J.rest)) return bad("rest threshold must be > 0, not " + fmt(*J.rest));
     if (!(J.rest_band >= 0 && std::isfinite(J.rest_band))) return bad("rest band must be >= 0");
+    if (!(J.rest_drift >= 0 && !std::isnan(J.rest_drift))) return bad("rest drift time must be >= 0 s");
     if (J.envelope) {
       if (!positive(J.envelope->a)) return bad("envelope a must be > 0, not " + fmt(J.envelope->a));
       if (!(std::isfinite(J.envelope->b) && J.envelope->b >= 0))
@@ -106,6 +107,10 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
     // Profiles written before the hangover existed mean none.
     t.rest_rule.hangover = 0;
     if (const auto v = rest->find("hangover"); v != rest->end()) t.rest_rule.hangover = number(*v, base + ".rest.hangover");
+    if (const auto v = rest->find("signal"); v != rest->end()) {
+      if (*v == "r") t.rest_raw = true;
+      else if (*v != std::string(signal_name(signal))) throw fail(base + ".rest.signal must be \"r\" or \"" + std::string(signal_name(signal)) + "\"");
+    }
   }
   if (const auto margin = entry->find("margin"); margin != entry->end() && margin->is_object()) {
     if (const auto v = margin->find("nm"); v != margin->end()) t.margin_nm = number(*v, base + ".margin.nm");
@@ -127,6 +132,7 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
     if (const auto v = item.find("slow_band"); v != item.end()) J.slow_band = number(*v, name + ".slow_band");
     if (const auto v = item.find("rest"); v != item.end() && !v->is_null()) J.rest = number(*v, name + ".rest");
     if (const auto v = item.find("rest_band"); v != item.end()) J.rest_band = number(*v, name + ".rest_band");
+    if (const auto v = item.find("rest_drift"); v != item.end()) J.rest_drift = number(*v, name + ".rest_drift");
     if (const auto v = item.find("rest_statistic"); v != item.end()) {
       if (*v == "absolute") J.rest_absolute = true;
       else if (*v != "deviation") throw fail(name + ".rest_statistic must be \"deviation\" or \"absolute\"");
@@ -146,6 +152,7 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
 nlohmann::json thresholds_to_json(const Thresholds& t) {
   nlohmann::json entry = nlohmann::json::object();
   entry["rest"] = {{"velocity", t.rest_rule.velocity}, {"time", t.rest_rule.time}, {"hangover", t.rest_rule.hangover}};
+  if (t.rest_raw) entry["rest"]["signal"] = "r";
   if (t.margin_nm) entry["margin"] = {{"nm", *t.margin_nm}};
   else if (t.margin_percent) entry["margin"] = {{"percent", *t.margin_percent}};
   nlohmann::json joints = nlohmann::json::array();
@@ -159,6 +166,7 @@ nlohmann::json thresholds_to_json(const Thresholds& t) {
       item["rest"] = *J.rest;
       item["rest_band"] = J.rest_band;
       item["rest_statistic"] = J.rest_absolute ? "absolute" : "deviation";
+      if (!J.rest_absolute && J.rest_drift > 0) item["rest_drift"] = J.rest_drift;
     }
     if (J.envelope) item["envelope"] = {{"a", J.envelope->a}, {"b", J.envelope->b}};
     joints.push_back(item);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "momentum/detect/motion.hpp"
+#include "momentum/detect/tail.hpp"
 #include "momentum/detect/thresholds.hpp"
 
 namespace momentum::detect {
@@ -87,8 +88,13 @@ struct MagnitudeSummary {
 // max and its place, and the peaks apart from it.
 class MagnitudeStats {
  public:
+  // `peak_window`: seconds that separate independent excursions for the tail (> 0).
+  explicit MagnitudeStats(double peak_window = 0.2) : tail_(peak_window) {}
   // Rows after this belong to a new stream (peaks in different streams are apart).
-  void begin_stream() { peaks_.begin_stream(); }
+  void begin_stream() {
+    peaks_.begin_stream();
+    tail_.begin_stream();
+  }
   // Adds |value| for a row at time t lasting dt seconds. `where` is called only when the value
   // is a new maximum (it formats a location, which is too slow for every row). NaN values are
   // ignored.
@@ -105,6 +111,7 @@ class MagnitudeStats {
     squares_ = s;
     histogram_.add(m);
     peaks_.add(m, t);
+    tail_.add(m, t, dt, where);
     if (m > max_) {
       max_ = m;
       t_max_ = t;
@@ -113,6 +120,8 @@ class MagnitudeStats {
   }
   MagnitudeSummary summary() const;
   std::uint64_t samples() const { return samples_; }
+  // The declustered peaks, for the tail fit.
+  const TailSampler& tail() const { return tail_; }
   // Adds the rows of another accumulator (another state's rows judged by this state's rule).
   void merge(const MagnitudeStats& other);
 
@@ -123,6 +132,7 @@ class MagnitudeStats {
   std::string where_max_;
   LogHistogram histogram_;
   PeakTracker peaks_;
+  TailSampler tail_;
 };
 
 // Fits the velocity envelope a + b |dq| of points (|dq|, |x|): the LP
@@ -153,9 +163,29 @@ class EnvelopeFitter {
   double sum_v_ = 0;
 };
 
+// How a threshold follows from the collision-free data of a joint and state.
+enum class ThresholdRule {
+  // The level crossed `false_alarms_per_hour` times an hour of that state, from the generalised
+  // Pareto tail of the declustered peaks (tail.hpp), never below the largest peak that is not
+  // an outlier plus the margin. Outliers (a glitch, an unmarked bump) are named and left out.
+  rate,
+  // The paper's: the largest value plus the margin, whatever it is.
+  max,
+};
+// "rate" or "max"; throws momentum::Error otherwise.
+ThresholdRule parse_threshold_rule(std::string_view name);
+
 struct CalibrationOptions {
-  // Safety margin added to the largest residual: in Nm, or in percent of it. Exactly one is
-  // used; margin_nm wins when both are set. Both >= 0.
+  ThresholdRule rule = ThresholdRule::rate;
+  // The false-alarm rate a threshold stands for under the rate rule, per hour of the state's
+  // motion, > 0: 0.01 is one false alarm per 100 hours.
+  double false_alarms_per_hour = 0.01;
+  // Seconds that separate independent excursions of the residual (> 0): the detector's hold
+  // time (mo-detect --hold), after which a second excursion is a second event.
+  double peak_window = 0.2;
+  TailFitOptions tail;
+  // Safety margin added to the largest residual (not an outlier under the rate rule): in Nm,
+  // or in percent of it. Exactly one is used; margin_nm wins when both are set. Both >= 0.
   std::optional<double> margin_nm;
   double margin_percent = 10.0;
   RestRule rest_rule;
@@ -176,14 +206,34 @@ struct CalibrationOptions {
   // Fewest rows for a slow or rest threshold; with fewer, those rows are judged by the next
   // rule down (rest -> slow -> moving) and calibrated with it.
   std::uint64_t min_state_samples = 100;
+  // The rest baseline's drift time (motion.hpp): the candidates measured, s (each > 0, or 0 for
+  // a frozen baseline). Per joint the one that sees the smallest contact rising over
+  // `contact_rise` seconds wins: its threshold divided by drift_gain(drift, contact_rise).
+  std::vector<double> rest_drift_candidates = {0.5, 1, 2};
+  // Rise time of the slowest contact the rest state must see at close to its full size, s > 0:
+  // a push by hand rises within a few tenths of a second. Drift slower than the chosen drift
+  // time does not count as a contact; a contact rising slower is seen smaller.
+  double contact_rise = 0.3;
   bool IsValid(std::string* why) const;
+};
+
+// How one state's threshold was decided.
+struct ThresholdBasis {
+  bool from_tail = false;  // the tail's level at the target rate set it (else max + margin)
+  TailFit tail;            // the tail fit (tail.ok false when too few peaks; see tail.why)
+  // False alarms per hour the threshold stands for under the fitted tail; NaN without a fit.
+  double per_hour = NAN;
 };
 
 // Per-joint results of a calibration.
 struct JointCalibration {
+  ThresholdBasis moving_basis, slow_basis, rest_basis;
   MagnitudeSummary moving;         // |x| while moving
   MagnitudeSummary slow;           // |x| while slow (under the rest velocity, not yet at rest)
-  MagnitudeSummary rest;           // |x - baseline| at rest
+  MagnitudeSummary rest;           // |x - baseline| at rest, baseline following at rest_drift
+  double rest_drift = 0;           // the chosen drift time, s
+  // Per candidate drift time: the threshold it needs and the smallest contact it sees, Nm.
+  std::vector<std::pair<double, double>> rest_drift_costs;
   MagnitudeSummary rest_absolute;  // |x| at rest: what a rest-blind threshold would need
   std::optional<JointThreshold::Envelope> envelope_raw;  // before the margin
   double envelope_mean = NAN;  // mean envelope threshold over the moving rows (margin incl.)
@@ -199,6 +249,9 @@ struct CalibrationResult {
   std::vector<std::string> streams;  // names of the streams, in order
   bool have_velocity = false;
   bool states = true;  // motion states used (CalibrationOptions::rest_state)
+  ThresholdRule rule = ThresholdRule::rate;
+  double false_alarms_per_hour = 0;  // the rate rule's target
+  std::vector<double> rest_drift_candidates;  // s
   // Human-readable notes (a joint never at rest, no dq columns, ...), one line each.
   std::vector<std::string> notes;
   // Maxima that look like a contact (see CalibrationOptions::contact_ratio), one line each.
@@ -219,21 +272,37 @@ class Calibrator {
 
   // One row: time t (s), residuals x[0..n) (Nm), velocities dq[0..n) (rad/s) or nullptr.
   // `where()` returns the row's location (`file:line`); it is called only for new maxima.
+  // `x_rest` (n, or nullptr): the residual judged at rest when it differs from x (the raw r
+  // beside mu, see Thresholds::rest_raw; give it on every row or on none).
   template <class Where>
-  void add(double t, const double* x, const double* dq, Where&& where) {
+  void add(double t, const double* x, const double* dq, Where&& where, const double* x_rest = nullptr) {
+    if (x_rest) rest_raw_ = true;
     const double dt = std::isnan(t_prev_) || !(t > t_prev_) ? 0.0 : t - t_prev_;
     t_prev_ = t;
     if (std::isnan(t_start_)) t_start_ = t;
     const bool counted = !(t - t_start_ < options_.skip);
     rows_ += counted;
+    bool arm_still = dq != nullptr;
+    if (dq)
+      for (std::size_t j = 0; j < joints_.size(); ++j) arm_still = arm_still && std::fabs(dq[j]) < options_.rest_rule.velocity;
     for (std::size_t j = 0; j < joints_.size(); ++j) {
       auto& J = joints_[j];
       MotionState state = MotionState::moving;
-      if (dq && options_.rest_state) state = J.tracker.update(t, dq[j], x[j]);
+      const double xr = x_rest ? x_rest[j] : x[j];
+      if (dq && options_.rest_state) state = J.tracker.update(t, dq[j], xr, true, arm_still);
+      if (state == MotionState::rest) {
+        // The baselines follow through the skipped rows too, as the detector's does.
+        if (!J.was_rest)
+          for (auto& b : J.drifting) b.start(t, J.tracker.baseline());
+        for (std::size_t d = 0; d < J.drifting.size(); ++d) {
+          if (counted) J.rest[d].add(xr - J.drifting[d].value(), t, dt, where);
+          J.drifting[d].update(t, xr, options_.rest_drift_candidates[d]);
+        }
+      }
+      J.was_rest = state == MotionState::rest;
       if (!counted) continue;
       if (state == MotionState::rest) {
-        J.rest.add(x[j] - J.tracker.baseline(), t, dt, where);
-        J.rest_absolute.add(x[j], t, dt, where);
+        J.rest_absolute.add(xr, t, dt, where);
       } else if (state == MotionState::slow) {
         J.slow.add(x[j], t, dt, where);
       } else {
@@ -250,7 +319,11 @@ class Calibrator {
  private:
   struct Joint {
     RestTracker tracker;
-    MagnitudeStats moving, slow, rest, rest_absolute;
+    MagnitudeStats moving, slow;
+    std::vector<MagnitudeStats> rest;        // per drift-time candidate
+    std::vector<DriftingBaseline> drifting;  // per drift-time candidate
+    bool was_rest = false;
+    MagnitudeStats rest_absolute;
     EnvelopeFitter envelope;
   };
   Signal signal_;
@@ -258,6 +331,7 @@ class Calibrator {
   std::vector<Joint> joints_;
   std::vector<std::string> streams_;
   bool have_velocity_ = true;
+  bool rest_raw_ = false;
   std::uint64_t rows_ = 0;
   double t_prev_ = NAN;
   double t_start_ = NAN;  // first row of the current stream
@@ -274,5 +348,10 @@ std::string format_calibration_report(const CalibrationResult& result);
 //   # change mu1 moving 2.5 -> 2.28 Nm -8.8%
 // ("-" for a state without a threshold, then no percentage).
 std::string format_threshold_changes(const Thresholds* old, const Thresholds& updated);
+
+// The thresholds of `updated` that exceed `factor` times the same joint's and state's in `old`,
+// one line each ("mu2 moving 7.1 -> 31 Nm, 4.4 times"), for a nightly recalibration that must
+// not make the robot blind without saying so. Empty when none, or when the joint counts differ.
+std::vector<std::string> threshold_rises(const Thresholds& old, const Thresholds& updated, double factor);
 
 }  // namespace momentum::detect

@@ -4,8 +4,10 @@
 // the collided link is the most distal joint that fired (paper section 4, fault signature
 // eta = [1..1, 0..0]). Semantics in mo-detect(1).
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -18,9 +20,18 @@ namespace momentum::detect {
 struct DetectorOptions {
   // Consecutive rows over the threshold for a joint to fire, >= 1.
   int min_samples = 1;
-  // An event ends when every joint has stayed below release * threshold for `hold` seconds.
-  double release = 0.8;  // in (0, 1]
-  double hold = 0.2;     // s, >= 0
+  // A joint is back when its statistic is under the larger of its band (the calibration's 99th
+  // percentile, see onset_band) and release * threshold: well down, not at the first dip under
+  // the threshold, yet not at the mercy of the 1% of collision-free rows outside the band. A
+  // joint that fired is armed again once it has been back for `hold` seconds: its next firing
+  // is a new contact, and a new event. In (0, 1].
+  double release = 0.5;
+  // An event ends when every joint has been back for `hold` seconds, s >= 0.
+  double hold = 0.2;
+  // A joint firing for the first time within `join` seconds of an event's detection joins that
+  // event (one contact reaches the joints' thresholds at slightly different times); a later
+  // first firing is a new contact. s >= 0.
+  double join = 0.25;
   // Band for the onset estimate as a fraction of the threshold, in (0, 1]; nullopt: the
   // calibrated band of the profile (band, rest_band), or 0.5 when that is 0.
   std::optional<double> onset_band;
@@ -38,10 +49,13 @@ class Detector {
   Detector(Thresholds thresholds, DetectorOptions options, bool have_velocity);
 
   // One row at time t (s): residuals x[0..n) (Nm) and velocities dq[0..n) (rad/s; ignored
-  // when constructed without velocity). Rows must come in time order. Returns the event row
-  // this row produced (an onset or an end), or nullptr; valid until the next call. A NaN
+  // when constructed without velocity). Rows must come in time order. Returns the event rows
+  // this row produced, in order: none, an onset, an end, or the end of the open event and the
+  // onset of the next (a new contact while it was open); valid until the next call. A NaN
   // residual neither fires nor keeps an event open.
-  const Event* step(double t, const double* x, const double* dq);
+  // `x_rest` (optional, n): the residual judged while a joint rests, when it differs from x
+  // (Thresholds::rest_raw: the raw residual r while x is the compensated mu).
+  std::span<const Event> step(double t, const double* x, const double* dq, const double* x_rest = nullptr);
 
   // Closes an open event at the last row seen (end of input or a signal). Returns its end
   // row, or nullptr when no event is open.
@@ -68,22 +82,29 @@ class Detector {
  private:
   struct Joint {
     RestTracker tracker;
+    DriftingBaseline baseline;  // at rest: follows the residual's slow drift
+    bool was_rest = false;      // at rest on the previous row
     int over = 0;            // consecutive rows over the threshold
     bool in_band = true;     // previous row inside the onset band
     double rise_start = 0;   // first row of the current out-of-band run, s
     double run_peak = 0;     // peak |x| over that run
     bool fired = false;      // fired during the open event
+    bool armed = true;       // back for the hold time since it last fired
+    double back_since = NAN;  // start of the current run of rows back in the band, s
     std::uint64_t rest_rows = 0;
   };
+  void open_event(double t, const double* x);
+  void close_event(double t_end, EndReason reason);
   Thresholds thresholds_;
   DetectorOptions options_;
   bool have_velocity_;
   std::vector<Joint> joints_;
-  std::vector<char> fires_, quiet_;
+  std::vector<char> fires_, quiet_, crossing_;
   std::vector<Bounds> bounds_;
   bool open_ = false;
   Event current_;
-  Event out_;
+  Event out_[2];
+  std::size_t out_count_ = 0;
   std::uint64_t next_id_ = 1;
   std::uint64_t rows_ = 0;
   double t_last_ = 0;

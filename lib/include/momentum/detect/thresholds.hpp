@@ -13,6 +13,7 @@
 //          "slow": 3.9, "slow_band": 2.0,                  // Nm, optional
 //          "rest": 0.9, "rest_band": 0.3,                  // Nm, optional
 //          "rest_statistic": "deviation",                  // or "absolute"
+//          "rest_drift": 1.0,                              // s, optional (0: frozen)
 //          "envelope": {"a": 1.7, "b": 0.9}},              // Nm, Nm s/rad, optional
 //         ...
 //       ]
@@ -65,6 +66,9 @@ struct JointThreshold {
   bool rest_absolute = false;
   // 99th percentile of the rest statistic at rest. 0 when unknown.
   double rest_band = 0;
+  // Time constant with which the rest baseline follows slow drift (motion.hpp), s; 0: frozen at
+  // the settled mean. Calibration picks it per joint.
+  double rest_drift = 0;
   // Velocity-dependent moving threshold a + b |dq| (margin included); a > 0, b >= 0.
   struct Envelope {
     double a = 0;  // Nm
@@ -77,6 +81,10 @@ struct JointThreshold {
 struct Thresholds {
   Signal signal = Signal::mu;
   RestRule rest_rule;
+  // At rest, judge the raw residual r instead of mu (Signal::mu only): a joint at rest holds
+  // static friction that does not change until it moves, while a friction model driven by the
+  // velocity's noise switches between -tau_c and tau_c; compensating at rest adds that noise.
+  bool rest_raw = false;
   std::vector<JointThreshold> joints;  // joint 1 first
   // The margin as calibrated, for reports: exactly one of these is set when known.
   std::optional<double> margin_nm;

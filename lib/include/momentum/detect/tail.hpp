@@ -1,0 +1,138 @@
+#pragma once
+// The tail of a residual's excursions, for thresholds that state the false-alarm rate they
+// stand for (peaks over threshold, extreme-value statistics).
+//
+// A detector raises a false alarm each time the statistic crosses its threshold on
+// collision-free motion, so the rate that matters is the rate of independent excursions above
+// a level, not the share of samples above it. The peaks of those excursions (declustered: each
+// the largest value within `window` seconds after it, and at least that far from the previous
+// peak) above a high level follow a generalised Pareto distribution (Pickands-Balkema-de Haan),
+// whatever the distribution of the samples. Fitting it to the largest peaks gives the level
+// crossed once per given number of hours, also beyond the data's own length, and tells a lone
+// excursion far beyond that tail (a glitch, an unmarked bump, an abrupt stop) from the tail
+// itself, so that one such row cannot set a threshold.
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace momentum::detect {
+
+// One declustered peak: |x| (signal units), time (s) and location (`file:line`).
+struct TailPeak {
+  double m = 0;
+  double t = 0;
+  std::string where;
+};
+
+// Declustered peaks of one signal, the largest `keep` of them, in constant memory.
+class TailSampler {
+ public:
+  // `window`: seconds that separate independent excursions (> 0); `keep`: peaks kept (>= 8).
+  explicit TailSampler(double window = 0.2, std::size_t keep = 256);
+
+  // Rows after this belong to a new stream: the open excursion is closed first.
+  void begin_stream();
+
+  // One sample |x| at time t (s) that lasted dt seconds of exposure. `where()` gives the row's
+  // location; it is called only when the sample may become one of the kept peaks. NaN ignored.
+  template <class Where>
+  void add(double m, double t, double dt, Where&& where) {
+    if (std::isnan(m)) return;
+    seconds_ += dt;
+    if (has_candidate_ && t - candidate_.t >= window_) close();
+    const double previous = previous_m_;
+    previous_m_ = m;
+    if (!has_candidate_) {
+      // After a peak, the excursion's fall belongs to it: the next one starts where the signal
+      // rises again.
+      if (descending_ && m <= previous) return;
+      descending_ = false;
+      has_candidate_ = true;
+      candidate_.m = -1;
+    }
+    if (m > candidate_.m) {
+      candidate_.m = m;
+      candidate_.t = t;
+      if (could_keep(m)) candidate_.where = where();
+      else candidate_.where.clear();
+    }
+  }
+
+  // Closes the open excursion (end of a stream or of the data).
+  void close();
+  // Peaks found (kept or not) and seconds of exposure.
+  std::uint64_t peaks() const { return peaks_; }
+  double seconds() const { return seconds_; }
+  // The kept peaks, largest first (the open excursion included).
+  std::vector<TailPeak> largest() const;
+  // Adds another sampler's peaks (other streams) and exposure.
+  void merge(const TailSampler& other);
+
+ private:
+  bool could_keep(double m) const { return kept_.size() < keep_ || m > kept_.front().m; }
+  void push(const TailPeak& peak);
+  double window_;
+  std::size_t keep_;
+  std::vector<TailPeak> kept_;  // a min-heap on m
+  std::uint64_t peaks_ = 0;
+  double seconds_ = 0;
+  bool has_candidate_ = false;
+  TailPeak candidate_;
+  bool descending_ = false;
+  double previous_m_ = 0;
+};
+
+// A generalised Pareto tail: P(peak > u0 + y | peak > u0) = (1 + xi y / sigma)^(-1/xi), with
+// peaks over u0 arriving at `rate` per hour.
+struct ParetoTail {
+  double u0 = 0;     // base level, signal units
+  double sigma = 0;  // scale, signal units, > 0
+  double xi = 0;     // shape: < 0 bounded tail, 0 exponential, > 0 heavy
+  double rate = 0;   // peaks over u0 per hour of exposure
+  int peaks = 0;     // peaks over u0 the fit used
+  // The level whose peaks exceed it `per_hour` times an hour on average, signal units.
+  double level(double per_hour) const;
+  // Peaks per hour over level u.
+  double rate_over(double u) const;
+};
+
+struct TailFitOptions {
+  // Shape bounds: probability-weighted moments are unreliable for xi < -0.5, and a heavier
+  // tail than xi = 0.5 (infinite variance beyond xi = 0.5) is not what residual noise does; a
+  // fit outside is clamped and the scale refitted.
+  double xi_min = -0.5, xi_max = 0.5;
+  // A largest peak is an outlier when, under the tail fitted to the peaks below it, the chance
+  // that any of them reaches it is under this (Bonferroni over the peaks tested).
+  double outlier_probability = 1e-3;
+  // At most this many outliers are removed (the largest first), and never more than a tenth of
+  // the peaks.
+  int max_outliers = 5;
+  // Fewest peaks over the base level for a fit.
+  int min_peaks = 4;
+  // With fewer peaks over the base level than this the shape is not estimated: the tail is
+  // exponential (xi = 0), the neutral case between bounded and heavy tails.
+  int min_shape_peaks = 30;
+  bool IsValid(std::string* why) const;
+};
+
+// The fit of the tail of declustered peaks.
+struct TailFit {
+  bool ok = false;          // false: too few peaks (see why)
+  std::string why;          // when !ok
+  ParetoTail tail;          // when ok
+  std::vector<TailPeak> outliers;  // peaks removed as outliers, largest first
+  double largest_kept = 0;  // the largest peak that is not an outlier (0 when none)
+  double seconds = 0;       // exposure, s
+};
+
+// Fits a generalised Pareto tail to the largest peaks (probability-weighted moments, Hosking and
+// Wallis 1987), after removing outliers. `total_peaks`: the peaks found in `seconds` of
+// exposure, of which `largest` are the top ones, largest first. The base level is the
+// (k+1)-th largest peak with k = min(kept - 1, max(min_peaks, total/5)); fewer than
+// min_peaks + 1 peaks in all: no fit.
+TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks, double seconds,
+                 const TailFitOptions& options = {});
+
+}  // namespace momentum::detect
