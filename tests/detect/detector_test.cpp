@@ -400,3 +400,41 @@ TEST(Detector, SkipKeepsTheFirstSecondsFromFiring) {
   ASSERT_EQ(r2.rows.size(), 2u);
   EXPECT_DOUBLE_EQ(r2.rows[0].t_detect, 30 * kDt);
 }
+
+TEST(Detector, ASecondContactInsideAnOpenEventIsItsOwnEvent) {
+  // Joint 1 is pushed to 2 x threshold from row 1000 to 3000 and stays there; joint 3 is hit
+  // at row 2000, 1 s later (beyond the join time): two contacts, two events. Then joint 1
+  // falls back, rises again after 0.5 s back: a third.
+  Detector d(constant({1, 1, 1}), {}, false);
+  auto r = run(d, 6000, [](int k, int j) {
+    if (j == 0 && ((k >= 1000 && k < 3000) || (k >= 3512 && k < 4000))) return 2.0;
+    if (j == 2 && k >= 2000 && k < 2500) return 2.0;
+    return 0.0;
+  }, moving);
+  std::vector<Event> onsets, ends;
+  for (const auto& e : r.rows) (e.kind == EventKind::onset ? onsets : ends).push_back(e);
+  ASSERT_EQ(onsets.size(), 3u);
+  ASSERT_EQ(ends.size(), 3u);
+  EXPECT_DOUBLE_EQ(onsets[0].t_detect, 1000 * kDt);
+  EXPECT_DOUBLE_EQ(onsets[1].t_detect, 2000 * kDt);
+  EXPECT_EQ(onsets[1].link, 3);
+  EXPECT_EQ(ends[0].ended_by, EndReason::next);
+  EXPECT_DOUBLE_EQ(ends[0].t_end, 2000 * kDt);
+  EXPECT_DOUBLE_EQ(onsets[2].t_detect, 3512 * kDt);
+  // Joints that fire together (within the join time) stay one event.
+  Detector together(constant({1, 1, 1}), {}, false);
+  auto t = run(together, 3000, [](int k, int j) { return k >= 1000 + 50 * j && k < 2000 ? 2.0 : 0.0; }, moving);
+  ASSERT_EQ(t.rows.size(), 2u);
+  EXPECT_EQ(t.rows[1].joints, std::vector<int>({1, 2, 3}));
+}
+
+TEST(Detector, AJointThatDipsBrieflyDoesNotReArm) {
+  // A contact that sags under half the threshold for 0.1 s (less than the hold) is one event.
+  Detector d(constant({1}), {}, false);
+  auto r = run(d, 4000, [](int k, int) {
+    if (k >= 1000 && k < 3000) return k >= 2000 && k < 2100 ? 0.3 : 2.0;
+    return 0.0;
+  }, moving);
+  ASSERT_EQ(r.rows.size(), 2u);
+  EXPECT_EQ(r.rows[1].ended_by, EndReason::release);
+}

@@ -78,7 +78,7 @@ def main():
     # Friction from the collision-free log, through the profile's observer.
     with open(w("free.obs.csv"), "w") as f:
         subprocess.run([tool("mo-observe"), "-q", "-p", profile, free], stdout=f, check=True)
-    fit = subprocess.run([tool("mo-lugre-fit"), "-q", "-p", profile, "--skip", "0.3", "-o", w("fitted.json")] + FIT_OPTIONS + [
+    fit = subprocess.run([tool("mo-lugre-fit"), "-q", "-p", profile, "--skip", "0.1", "-o", w("fitted.json")] + FIT_OPTIONS + [
                           w("free.obs.csv")], capture_output=True, text=True)
     if fit.returncode != 0:
         sys.exit(f"run_real: mo-lugre-fit failed:\n{fit.stderr}")
@@ -96,7 +96,7 @@ def main():
                 subprocess.run([tool("mo-observe"), "-q", "-p", w("fitted.json"), s], stdout=f, check=True)
             observed.append(out)
         calibrated = w(f"calibrated-for-{name}.json")
-        cal = subprocess.run([tool("mo-calibrate"), "-p", w("fitted.json"), "-o", calibrated, "--skip", "0.3"] + observed,
+        cal = subprocess.run([tool("mo-calibrate"), "-p", w("fitted.json"), "-o", calibrated, "--skip", "0.1"] + observed,
                              capture_output=True, text=True)
         if cal.returncode != 0:
             sys.exit(f"run_real: mo-calibrate failed:\n{cal.stderr}")
@@ -105,7 +105,7 @@ def main():
         log = os.path.join(a.data, "logs", f"{name}.csv")
         with open(w(f"{name}.obs.csv"), "w") as f:
             subprocess.run([tool("mo-observe"), "-q", "-p", calibrated, log], stdout=f, check=True)
-        det = subprocess.run([tool("mo-detect"), "-q", "-p", calibrated, "--skip", "0.3", w(f"{name}.obs.csv")],
+        det = subprocess.run([tool("mo-detect"), "-q", "-p", calibrated, "--skip", "0.1", w(f"{name}.obs.csv")],
                              capture_output=True, text=True)
         if det.returncode not in (0, 1):
             sys.exit(f"run_real: mo-detect failed:\n{det.stderr}")
