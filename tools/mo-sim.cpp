@@ -70,6 +70,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"rk4", "semi-implicit"}))->capture_default_str();
   app.add_option("--control-rate", run.controller.rate_hz, "controller update rate")->type_name("HZ")->capture_default_str();
   app.add_option("--bandwidth", run.controller.bandwidth_hz, "controller closed-loop bandwidth")->type_name("HZ")->capture_default_str();
+  app.add_option("--integral-time", run.controller.integral_time, "integral time of the position loop, 0 none")->type_name("S")->capture_default_str();
   app.add_flag("--no-friction", no_friction, "ignore the profile's simulation.friction");
 
   app.add_option("--encoder-bits", run.sensors.encoder_bits, "encoder resolution per revolution, 0: exact")->type_name("N")->capture_default_str();
@@ -77,7 +78,8 @@ int main(int argc, char** argv) {
   app.add_option("--velocity", velocity, "measured or difference (of encoder positions)")
       ->check(CLI::IsMember({"measured", "difference"}))->capture_default_str();
   app.add_option("--velocity-noise", run.sensors.velocity_noise, "measured velocity noise, standard deviation")->type_name("RAD/S")->capture_default_str();
-  app.add_option("--time-jitter", run.sensors.time_jitter, "sampling instant jitter, standard deviation")->type_name("S")->capture_default_str();
+  app.add_option("--time-jitter", run.sensors.time_jitter, "sampling instant jitter, standard deviation (default 10% of the period)")->type_name("S");
+  app.add_option("--velocity-resolution", run.sensors.velocity_resolution, "step of the reported velocity, 0 none")->type_name("RAD/S")->capture_default_str();
   app.add_option("--drop-rate", run.sensors.drop_rate, "probability that a sample is lost")->type_name("P")->capture_default_str();
 
   std::string links, force = "30:150", rise = "0.02:0.1", hold = "0.05:0.3", release = "0.02:0.1", clamp_hold = "0.5:2";

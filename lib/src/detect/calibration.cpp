@@ -480,7 +480,9 @@ std::string format_calibration_report(const CalibrationResult& r) {
     const auto& T = r.thresholds.joints[j];
     auto row = [&](const char* state, const MagnitudeSummary& s, std::string threshold, const ThresholdBasis* basis) {
       if (s.samples == 0) return;
-      const std::string rate = basis && std::isfinite(basis->per_hour) ? fmt(basis->per_hour, "%.3g") : "-";
+      // Rates far below any a log could show are only the tail's arithmetic: a bound suffices.
+      std::string rate = "-";
+      if (basis && std::isfinite(basis->per_hour)) rate = basis->per_hour < 1e-6 ? "<1e-6" : fmt(basis->per_hour, "%.3g");
       std::snprintf(line, sizeof line, "%-6s %-5zu %-8s %10llu %10s %10s %10s %10s %10s %10s %10s %10s  %s\n",
                     sig.c_str(), j + 1, state, static_cast<unsigned long long>(s.samples), fmt(s.seconds).c_str(),
                     fmt(s.rms).c_str(), fmt(s.p99).c_str(), fmt(s.p999).c_str(), fmt(s.max).c_str(),

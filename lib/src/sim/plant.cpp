@@ -124,6 +124,9 @@ bool ControllerOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(bandwidth_hz) && bandwidth_hz > 0)) return bad("controller bandwidth must be > 0 Hz");
   if (!(std::isfinite(damping_ratio) && damping_ratio > 0)) return bad("controller damping ratio must be > 0");
   if (!(std::isfinite(rate_hz) && rate_hz > 0)) return bad("control rate must be > 0 Hz");
+  if (!(std::isfinite(integral_time) && integral_time >= 0)) return bad("integral time must be >= 0 s");
+  if (integral_time > 0 && !(integral_time > 1 / (2 * damping_ratio * 2 * std::numbers::pi * bandwidth_hz)))
+    return bad("integral time must exceed 1 / (2 zeta w) for a stable loop");
   return true;
 }
 
@@ -134,7 +137,9 @@ Controller::Controller(const model::Model& model, const ControllerOptions& optio
   const double w = 2 * std::numbers::pi * options.bandwidth_hz;
   kp_ = w * w;
   kd_ = 2 * options.damping_ratio * w;
+  ki_ = options.integral_time > 0 ? kp_ / options.integral_time : 0;
   command_.setZero(model.nq);
+  integral_.setZero(model.nq);
   effort_.resize(model.nq);
   for (int j = 0; j < model.nq; ++j) {
     const double e = model.joints[j].limits.effort;
@@ -144,7 +149,8 @@ Controller::Controller(const model::Model& model, const ControllerOptions& optio
 
 void Controller::compute(const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& q_d,
                          const Eigen::VectorXd& dq_d, const Eigen::VectorXd& ddq_d, Eigen::VectorXd& tau_m) {
-  command_ = ddq_d + kp_ * (q_d - q) + kd_ * (dq_d - dq);
+  if (ki_ > 0) integral_ += (q_d - q) / options_.rate_hz;
+  command_ = ddq_d + kp_ * (q_d - q) + kd_ * (dq_d - dq) + ki_ * integral_;
   model::inverse_dynamics(*model_, data_, q, dq, command_, tau_m);
   tau_m = tau_m.cwiseMax(-effort_).cwiseMin(effort_);
 }

@@ -33,7 +33,10 @@ bool SensorOptions::IsValid(std::string* why) const {
   if (encoder_bits < 0 || encoder_bits > 52) return fail(why, "encoder bits must be within 0..52");
   if (!(std::isfinite(current_noise) && current_noise >= 0)) return fail(why, "current noise must be >= 0");
   if (!(std::isfinite(velocity_noise) && velocity_noise >= 0)) return fail(why, "velocity noise must be >= 0");
-  if (!(std::isfinite(time_jitter) && time_jitter >= 0)) return fail(why, "time jitter must be >= 0");
+  if (!(std::isnan(time_jitter) || (std::isfinite(time_jitter) && time_jitter >= 0)))
+    return fail(why, "time jitter must be >= 0");
+  if (!(std::isfinite(velocity_resolution) && velocity_resolution >= 0))
+    return fail(why, "velocity resolution must be >= 0");
   if (!(drop_rate >= 0 && drop_rate < 1)) return fail(why, "drop rate must be in [0, 1)");
   return true;
 }
@@ -72,6 +75,8 @@ void Sensors::measure(double t, const Eigen::VectorXd& q_true, const Eigen::Vect
   } else {
     dq = (q - previous_q_) / (t - previous_t_);
   }
+  if (const double step = options_.velocity_resolution; step > 0)
+    for (Eigen::Index j = 0; j < n; ++j) dq[j] = std::round(dq[j] / step) * step;
   for (Eigen::Index j = 0; j < n; ++j) i[j] = tau_m[j] / k_i_[j] + options_.current_noise * noise_.normal();
   previous_q_ = q;
   previous_t_ = t;
@@ -79,9 +84,10 @@ void Sensors::measure(double t, const Eigen::VectorXd& q_true, const Eigen::Vect
 }
 
 double Sensors::next_jitter(double period) {
-  if (options_.time_jitter <= 0) return 0;
+  const double sigma = std::isnan(options_.time_jitter) ? 0.1 * period : options_.time_jitter;
+  if (sigma <= 0) return 0;
   const double limit = 0.45 * period;
-  return std::clamp(options_.time_jitter * timing_.normal(), -limit, limit);
+  return std::clamp(sigma * timing_.normal(), -limit, limit);
 }
 
 bool Sensors::next_dropped() { return timing_.chance(options_.drop_rate); }

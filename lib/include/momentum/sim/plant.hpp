@@ -91,13 +91,18 @@ struct ControllerOptions {
   double rate_hz = 1000.0;
   // Saturate the motor torque at the URDF effort limits (where finite).
   bool limit_effort = true;
+  // Integral time of the position loop, s (>= 0; 0: PD only): Ki = Kp / Ti. A real position
+  // controller integrates the error, so a joint that stops on stiction ends up holding torque
+  // against it, and after a push is released unloads it over about Ti: the residual of a
+  // resting joint drifts with no contact. Stable for Ti > 1 / (2 zeta w).
+  double integral_time = 2.0;
 
   bool IsValid(std::string* why) const;
 };
 
-// Computed torque with PD: tau_m = M(q) (ddq_d + Kp e + Kd de) + C(q,dq) dq + g(q), i.e. the
-// library's inverse dynamics at the commanded acceleration. It knows the rigid-body model
-// exactly but neither friction nor contacts: the PD terms absorb those.
+// Computed torque with PID: tau_m = M(q) (ddq_d + Kp e + Kd de + Ki int e) + C(q,dq) dq + g(q),
+// i.e. the library's inverse dynamics at the commanded acceleration. It knows the rigid-body
+// model exactly but neither friction nor contacts: the feedback terms absorb those.
 class Controller {
  public:
   Controller(const model::Model& model, const ControllerOptions& options);
@@ -110,8 +115,8 @@ class Controller {
   const model::Model* model_;
   model::Data data_;
   ControllerOptions options_;
-  double kp_, kd_;
-  Eigen::VectorXd command_, effort_;
+  double kp_, kd_, ki_;
+  Eigen::VectorXd command_, effort_, integral_;
 };
 
 }  // namespace momentum::sim

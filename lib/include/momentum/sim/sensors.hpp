@@ -3,6 +3,7 @@
 // noise; the sampling instants may jitter and samples may be lost on the way.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -30,9 +31,14 @@ struct SensorOptions {
   VelocitySource velocity = VelocitySource::measured;
   // Standard deviation of the velocity noise (measured velocity), rad/s (>= 0).
   double velocity_noise = 0.002;
+  // Resolution of the reported velocity, rad/s (m/s), >= 0; 0 turns it off. Drives report
+  // velocity as an integer count (a UR10e's controller in steps of 1e-4 rad/s), so a joint at
+  // rest reads exactly 0 most of the time and jumps by a step.
+  double velocity_resolution = 1e-3;
   // Standard deviation of the sampling-instant jitter, s (>= 0); each instant is clipped to
-  // within 0.45 sample periods of its nominal time so that samples stay in order.
-  double time_jitter = 0.0;
+  // within 0.45 sample periods of its nominal time so that samples stay in order. NaN: 10% of
+  // the sample period (a real controller's log: rows 10 and 12 ms apart at 100 Hz).
+  double time_jitter = NAN;
   // Probability that a sample is lost (never written), 0 <= p < 1.
   double drop_rate = 0.0;
 
