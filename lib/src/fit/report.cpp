@@ -57,7 +57,12 @@ json model_json(const ModelFit& m) {
                    {"generations", m.global.generations},
                    {"runs", m.global.runs},
                    {"seconds", m.global.seconds},
-                   {"message", m.global.message}};
+                   {"message", m.global.message},
+                   {"subset", {{"used", m.subset.used},
+                               {"segments", m.subset.segments},
+                               {"samples", m.subset.samples},
+                               {"counted", m.subset.counted},
+                               {"counted_total", m.subset.counted_total}}}};
   out["polish"] = {{"iterations", m.polish_iterations},
                    {"residual_evaluations", m.polish_residual_evaluations},
                    {"jacobian_evaluations", m.polish_jacobian_evaluations},
@@ -225,6 +230,9 @@ std::string report_text(const FitReport& r) {
     if (m.global.runs > 0 && r.options.polish.enabled)
       out += printf_string("  global search rms %.4g Nm (%s), polish: %d iterations\n", m.global_metrics.rms,
                            m.global.message.c_str(), m.polish_iterations);
+    if (m.subset.used)
+      out += printf_string("  searched on %zu of %zu counted samples (%zu windows), polished on all\n",
+                           m.subset.counted, m.subset.counted_total, m.subset.segments);
     append_parameters(out, m, "  ");
     std::string strong;
     for (Eigen::Index a = 0; a < m.correlation.rows(); ++a)
