@@ -1043,10 +1043,22 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const std::vector<observer::Gains>& gains,
                                  const FitOptions& options, int threads,
                                  const JointProgressCallback& progress) {
+  return fit_joints(data, gains, std::vector<FitOptions>(data.size(), options), threads, progress);
+}
+
+std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
+                                 const std::vector<observer::Gains>& gains,
+                                 const std::vector<FitOptions>& joint_options, int threads,
+                                 const JointProgressCallback& progress) {
   if (gains.size() != data.size())
     throw std::invalid_argument("friction fit: one set of gains per joint needed");
+  if (joint_options.size() != data.size())
+    throw std::invalid_argument("friction fit: one set of options per joint needed");
+  if (data.empty()) return {};
   std::string why;
-  if (!options.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
+  for (const auto& o : joint_options)
+    if (!o.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
+  const FitOptions& options = joint_options.front();  // the model and its comparisons: the same for every joint
   for (std::size_t i = 0; i < data.size(); ++i) {
     if (!gains[i].IsValid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
     if (data[i].scored_count() == 0)
@@ -1066,8 +1078,6 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
     for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::symmetric});
   if (options.kind == Kind::lugre && options.compare_static)
     for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::static_model});
-  FitOptions symmetric = options;
-  symmetric.asymmetric = false;
   std::vector<JointFit> results(data.size());
   std::vector<std::exception_ptr> errors(tasks.size());
   std::atomic<std::size_t> next{0};
@@ -1080,8 +1090,9 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
         const auto start = std::chrono::steady_clock::now();
         const bool is_static = task.which == Which::static_model;
         const bool is_symmetric = task.which == Which::symmetric;
-        ModelFit fit = fit_model(d, gains[task.joint], is_static ? Kind::stribeck : options.kind,
-                                 is_symmetric ? symmetric : options,
+        FitOptions own = joint_options[task.joint];
+        if (is_symmetric) own.asymmetric = false;
+        ModelFit fit = fit_model(d, gains[task.joint], is_static ? Kind::stribeck : own.kind, own,
                                  derive_seed(seed, is_static ? 1 : is_symmetric ? 2 : 0), d.joint, progress);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         auto& r = results[task.joint];  // each slot written by one task only

@@ -218,4 +218,12 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const FitOptions& options, int threads = 0,
                                  const JointProgressCallback& progress = {});
 
+// The same with options per joint (joint_options[i] for data[i], e.g. each joint's own search
+// box); the model, the comparisons (compare_static, asymmetric) and the seed are those of
+// joint_options[0] for every joint. Throws std::invalid_argument when the sizes differ.
+std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
+                                 const std::vector<observer::Gains>& gains,
+                                 const std::vector<FitOptions>& joint_options, int threads = 0,
+                                 const JointProgressCallback& progress = {});
+
 }  // namespace momentum::fit
