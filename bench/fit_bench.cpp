@@ -7,6 +7,8 @@
 // function runs over the 1251 samples, Ceres Jacobian runs included) and the final cost
 // 1/2 sum e^2 summed over the joints; "paper cost" is the full GA's (same seed), so the
 // default must show cost <= paper cost. Each benchmark runs once (a fit takes seconds).
+// BM_FitPerSample: the default fit's CPU cost per sample on long data (the same motion repeated
+// up to an hour at 125 Hz), which falls with the length since the search runs on a fixed subset.
 // scripts/bench-fit.sh runs it and mo-lugre-fit end to end.
 #include <benchmark/benchmark.h>
 
@@ -117,6 +119,29 @@ void BM_Fit(benchmark::State& state) {
                  std::to_string(joints) + (joints == 1 ? " joint" : " joints on 2 threads"));
 }
 BENCHMARK(BM_Fit)->Args({0, 1})->Args({1, 1})->Args({0, 3})->Args({1, 3})->Args({2, 3})
+    ->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The fit's cost per sample on long data: the paper's 10 s repeated (with its observer
+// restarting at each copy) to range(0) samples per joint, one joint, the default fit (search
+// on a 2,000-sample subset, polish and uncertainties on all). Counter "us_per_sample": CPU
+// microseconds per counted sample; it falls as the data grow, since the search's share is fixed.
+void BM_FitPerSample(benchmark::State& state) {
+  const Data& d = paper_data();
+  const auto wanted = static_cast<std::size_t>(state.range(0));
+  fit::JointSeries series;
+  while (series.size() < wanted) fit::append_series(series, d.series.front());
+  std::vector<fit::JointSeries> data{series};
+  std::vector<momentum::observer::Gains> gains{d.gains.front()};
+  std::vector<fit::JointFit> fits;
+  const std::clock_t cpu_start = std::clock();
+  for (auto _ : state) fits = fit::fit_joints(data, gains, options(false, false), 1);
+  const double cpu = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
+  const auto samples = static_cast<double>(fits.front().model.metrics.samples);
+  state.counters["samples"] = samples;
+  state.counters["us_per_sample"] = 1e6 * cpu / static_cast<double>(state.iterations()) / samples;
+  state.counters["cost"] = total_cost(fits);
+}
+BENCHMARK(BM_FitPerSample)->Arg(12510)->Arg(125100)->Arg(450360)
     ->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/fit/data.hpp"
 #include "momentum/fit/friction_fit.hpp"
+#include "momentum/fit/identify.hpp"
 #include "momentum/fit/mirror.hpp"
 #include "momentum/fit/report.hpp"
 #include "momentum/model/model.hpp"
@@ -91,7 +92,11 @@ int main(int argc, char** argv) {
   bool asymmetric = false;
   app.add_flag("--asymmetric", asymmetric,
                "also fit direction-dependent levels (delta_c, delta_s), and the symmetric model for comparison");
-  app.add_option("--bounds", bounds_text, "search box, e.g. sigma0=5e4:2e5,w_s=0.001:0.5")->type_name("LIST");
+  app.add_option("--bounds", bounds_text, "search box, e.g. sigma0=5e4:2e5,w_s=0.001:0.5 (others: from the robot and the data)")->type_name("LIST");
+  bool paper_bounds = false;
+  int widenings = 2;
+  app.add_flag("--paper-bounds", paper_bounds, "search the paper's box (sigma2, tau_c, tau_s up to 10) instead of one scaled to the robot and the data");
+  app.add_option("--widenings", widenings, "refits in a 4 times wider box when a parameter ends on its bound (default 2)")->type_name("N");
   app.add_option("--fix", fix_text, "hold parameters at values, e.g. sigma0=1e5")->type_name("LIST");
   app.add_option("--threads", threads, "joints fitted at once (default: one per core)")->type_name("N");
   app.add_option("--mirror", mirror_logs, "check the fit against a trajectory and its mirror (paper's ref. 37)")
@@ -125,7 +130,12 @@ int main(int argc, char** argv) {
     options.polish.enabled = !no_polish;
     options.compare_static = !no_static;
     options.asymmetric = asymmetric;
+    fit::IdentifyOptions identify;
+    identify.robot_bounds = !paper_bounds;
+    identify.max_widenings = widenings;
+    identify.threads = threads;
     parse_assignments(bounds_text, "--bounds", [&](int i, const std::string& range) {
+      identify.user_bounds[static_cast<std::size_t>(i)] = true;
       const auto colon = range.find(':');
       if (colon == std::string::npos) throw cli::UsageError("--bounds: '" + range + "' is not LO:HI");
       options.bounds.lower[static_cast<std::size_t>(i)] = parse_double(range.substr(0, colon), "--bounds");
@@ -180,7 +190,8 @@ int main(int argc, char** argv) {
     if (current) options.friction = current->options;
     select.gap_factor = observer_options.gap_factor;
     std::string why;
-    if (!options.IsValid(&why)) throw cli::UsageError(why);
+    identify.fit = options;
+    if (!identify.IsValid(&why)) throw cli::UsageError(why);
     if (!select.IsValid(&why)) throw cli::UsageError(why);
     const std::vector<observer::Gains> robot_gains = observer_options.joint_gains(robot.nq);
 
@@ -244,8 +255,17 @@ int main(int argc, char** argv) {
         if (!s.empty()) line += "  " + s;
       progress.update(line);
     };
-    const auto fits = fit::fit_joints(series, gains, options, threads, on_progress);
+    std::vector<double> effort, velocity;
+    for (const auto& s : series) {
+      const auto& limits = robot.joints[static_cast<std::size_t>(s.joint - 1)].limits;
+      effort.push_back(limits.effort);
+      velocity.push_back(limits.velocity);
+    }
+    identify.fit = options;
+    auto identified = fit::identify_friction(series, gains, effort, velocity, identify, on_progress);
     progress.finish();
+    std::vector<fit::JointFit> fits;
+    for (const auto& j : identified) fits.push_back(j.fit);
 
     fit::FitReport report;
     report.inputs = inputs;
@@ -255,6 +275,9 @@ int main(int argc, char** argv) {
     for (std::size_t i = 0; i < fits.size(); ++i) {
       fit::JointReport j = std::move(slow_samples[i]);
       j.fit = fits[i];
+      j.bounds = identified[i].bounds;
+      j.widenings = identified[i].widenings;
+      j.failure = identified[i].failure;
       j.gains = gains[i];
       const double dt = series[i].median_dt();
       j.sample_rate_hz = dt > 0 ? 1.0 / dt : 0.0;
@@ -299,7 +322,14 @@ int main(int argc, char** argv) {
       report.outcome = "profile not written (use --update or -o)";
     } else {
       const auto worse = fit::worse_than_current(report);
-      if (!worse.empty() && !force) {
+      std::string failed;
+      for (const auto& j : report.joints)
+        if (!j.failure.empty()) failed += (failed.empty() ? "joint " : "; joint ") + std::to_string(j.fit.joint) + ": " + j.failure;
+      if (!failed.empty() && !force) {
+        failure = failed + ": the fit failed; profile not written (--force to write anyway)";
+        report.outcome = "refused: " + failure;
+        status = cli::kFailure;
+      } else if (!worse.empty() && !force) {
         std::string list;
         for (int j : worse) list += (list.empty() ? "" : ",") + std::to_string(j);
         failure = "joint" + std::string(worse.size() > 1 ? "s " : " ") + list +

@@ -1,7 +1,6 @@
 #include "momentum/fit/friction_fit.hpp"
 
 #include <ceres/ceres.h>
-#include <ceres/covariance.h>
 #include <ceres/dynamic_autodiff_cost_function.h>
 
 #include <Eigen/SVD>
@@ -13,8 +12,10 @@
 #include <cstdio>
 #include <exception>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <thread>
+#include <unordered_map>
 
 #include "momentum/stream/error.hpp"
 #include "random.hpp"
@@ -102,6 +103,7 @@ bool FitOptions::IsValid(std::string* why) const {
   if (!friction.IsValid(why)) return false;
   if (!global.IsValid(why)) return false;
   if (!polish.IsValid(why)) return false;
+  if (!search_subset.IsValid(why)) return false;
   if (!(identifiability_threshold > 0)) return fail("identifiability threshold must be > 0");
   std::vector<Kind> kinds{kind};
   if (kind == Kind::lugre && compare_static) kinds.push_back(Kind::stribeck);
@@ -136,12 +138,18 @@ struct Problem {
   Kind kind = Kind::lugre;
   friction::Options friction;
   std::vector<double> dt;                                 // dt[0] = 0
-  std::vector<observer::FilterCoefficients> coefficients; // distinct ones
+  std::vector<observer::FilterCoefficients> coefficients; // one per distinct interval
   std::vector<std::uint32_t> coefficient_of;              // per sample
   std::vector<int> free;
   std::array<double, kParameterCount> fixed{};            // values of the parameters not free
   std::array<double, kParameterCount> scale{};            // Ceres works on x / scale
   std::size_t scored = 0;
+  // Unknown filter states of a search subset (set_unknown_starts); empty otherwise.
+  std::vector<std::int32_t> nuisance_segment;  // per sample: its segment, -1 none
+  std::vector<double> nuisance_response;       // per sample: h
+  std::vector<double> nuisance_norm;           // per segment: sum of h^2 over counted samples
+  std::vector<std::int32_t> scored_segment;    // per counted sample
+  std::vector<double> scored_response;         // per counted sample
 
   Problem(const JointSeries& series, const observer::Gains& gains, Kind k,
           const FitOptions& options)
@@ -149,10 +157,14 @@ struct Problem {
     const std::size_t n = series.size();
     dt.assign(n, 0.0);
     coefficient_of.assign(n, 0);
+    // Time stamps written in decimal make the intervals differ in their last bits from one
+    // sample to the next, but take few distinct values: one set of coefficients per value.
+    std::unordered_map<double, std::uint32_t> known;
     for (std::size_t i = 1; i < n; ++i) {
       dt[i] = series.t[i] - series.t[i - 1];
-      if (coefficients.empty() || dt[i] != dt[i - 1]) coefficients.push_back(observer::discretize(gains, dt[i]));
-      coefficient_of[i] = static_cast<std::uint32_t>(coefficients.size() - 1);
+      auto [it, added] = known.try_emplace(dt[i], static_cast<std::uint32_t>(coefficients.size()));
+      if (added) coefficients.push_back(observer::discretize(gains, dt[i]));
+      coefficient_of[i] = it->second;
     }
     if (coefficients.empty()) coefficients.emplace_back();
     free = free_parameters(options, k);
@@ -165,6 +177,53 @@ struct Problem {
       if (!(scale[u] > 0)) scale[u] = 1;
     }
     scored = series.scored_count();
+  }
+
+  // A search subset's segments start where the observer had been running: the observer's filter
+  // state there is unknown, and the model's starts at rest. The filter is linear, so the
+  // difference in its slow state (the second-order observer's K2 pole, seconds long, too slow
+  // for a short warm-up) adds a known response h to r, decaying with that pole, times an
+  // unknown size per segment; the cost takes the best size for each segment (a linear least
+  // squares in closed form), as if the filter had been warmed up for ever. The fast pole and
+  // the friction state settle within the segment's uncounted warm-up. `starts`: first sample
+  // of each such segment; `slow_pole`: false for a first-order observer (no slow state).
+  void set_unknown_starts(const std::vector<std::size_t>& starts, bool slow_pole) {
+    const auto& d = *data;
+    nuisance_segment.assign(d.size(), -1);
+    nuisance_response.assign(d.size(), 0.0);
+    nuisance_norm.clear();
+    scored_segment.clear();
+    scored_response.clear();
+    if (!slow_pole) return;
+    for (std::size_t g = 0; g < starts.size(); ++g) {
+      double state = 1.0;
+      nuisance_norm.push_back(0.0);
+      for (std::size_t k = starts[g] + 1; k < d.size() && d.restart[k] == 0; ++k) {
+        const auto& c = coefficients[coefficient_of[k]];
+        state *= c.a2;
+        nuisance_segment[k] = static_cast<std::int32_t>(g);
+        nuisance_response[k] = -c.gain * state;
+        if (d.scored[k]) nuisance_norm[g] += nuisance_response[k] * nuisance_response[k];
+      }
+    }
+    for (std::size_t k = 0; k < d.size(); ++k)
+      if (d.scored[k]) {
+        scored_segment.push_back(nuisance_segment[k]);
+        scored_response.push_back(nuisance_response[k]);
+      }
+  }
+  bool has_nuisance() const { return !nuisance_norm.empty(); }
+
+  // Removes from the counted residuals e (in counted order) each segment's best multiple of h.
+  template <class T>
+  void remove_nuisance(T* e) const {
+    std::vector<T> projection(nuisance_norm.size(), T(0));
+    for (std::size_t m = 0; m < scored_segment.size(); ++m)
+      if (scored_segment[m] >= 0) projection[static_cast<std::size_t>(scored_segment[m])] += scored_response[m] * e[m];
+    for (std::size_t g = 0; g < projection.size(); ++g)
+      projection[g] = nuisance_norm[g] > 0 ? projection[g] / nuisance_norm[g] : T(0);
+    for (std::size_t m = 0; m < scored_segment.size(); ++m)
+      if (scored_segment[m] >= 0) e[m] -= projection[static_cast<std::size_t>(scored_segment[m])] * scored_response[m];
   }
 
   // Parameters from the free values x: physical units when `scales` is null, otherwise
@@ -223,6 +282,19 @@ struct Problem {
     if (!feasible(kind, p)) return std::numeric_limits<double>::infinity();
     double sum = 0;
     const auto& d = *data;
+    if (has_nuisance()) {
+      std::vector<double> projection(nuisance_norm.size(), 0.0);
+      simulate(p, [&](std::size_t k, double y, double) {
+        if (d.scored[k]) {
+          const double e = d.r[k] - y;
+          sum += e * e;
+          if (nuisance_segment[k] >= 0) projection[static_cast<std::size_t>(nuisance_segment[k])] += nuisance_response[k] * e;
+        }
+      });
+      for (std::size_t g = 0; g < projection.size(); ++g)
+        if (nuisance_norm[g] > 0) sum -= projection[g] * projection[g] / nuisance_norm[g];
+      return 0.5 * std::max(sum, 0.0);
+    }
     simulate(p, [&](std::size_t k, double y, double) {
       if (d.scored[k]) {
         const double e = d.r[k] - y;
@@ -246,9 +318,128 @@ struct Residuals {
     problem->simulate(p, [&](std::size_t k, const T& y, const T&) {
       if (d.scored[k]) residuals[m++] = T(d.r[k]) - y;
     });
+    if (problem->has_nuisance()) problem->remove_nuisance(residuals);
     return true;
   }
 };
+
+// The counted residuals e = r - r_model and their Jacobian d e / d x (x: the free parameters
+// over `scale`, as Residuals) in one pass of the model with N-dual numbers, N the number of free
+// parameters; memory: the m x N result, nothing per sample besides. False where the parameters
+// are infeasible.
+template <int N>
+bool jacobian_pass(const Problem& problem, const std::vector<double>& x,
+                   const std::array<double, kParameterCount>& scale, Eigen::VectorXd& e,
+                   Eigen::MatrixXd& jacobian) {
+  using J = ceres::Jet<double, N>;
+  std::array<J, kParameterCount> v{};
+  for (int j = 0; j < N; ++j) v[static_cast<std::size_t>(j)] = J(x[static_cast<std::size_t>(j)], j);
+  const auto p = problem.assemble<J>(v.data(), scale.data());
+  if (!feasible(problem.kind, p)) return false;
+  const auto m = static_cast<Eigen::Index>(problem.scored);
+  e.resize(m);
+  jacobian.resize(m, N);
+  const auto& d = *problem.data;
+  Eigen::Index row = 0;
+  problem.simulate(p, [&](std::size_t k, const J& y, const J&) {
+    if (!d.scored[k]) return;
+    e(row) = d.r[k] - y.a;
+    jacobian.row(row) = -y.v.transpose();
+    ++row;
+  });
+  return true;
+}
+
+bool jacobian_at(const Problem& problem, const std::vector<double>& x,
+                 const std::array<double, kParameterCount>& scale, Eigen::VectorXd& e,
+                 Eigen::MatrixXd& jacobian) {
+  switch (x.size()) {
+    case 1: return jacobian_pass<1>(problem, x, scale, e, jacobian);
+    case 2: return jacobian_pass<2>(problem, x, scale, e, jacobian);
+    case 3: return jacobian_pass<3>(problem, x, scale, e, jacobian);
+    case 4: return jacobian_pass<4>(problem, x, scale, e, jacobian);
+    case 5: return jacobian_pass<5>(problem, x, scale, e, jacobian);
+    case 6: return jacobian_pass<6>(problem, x, scale, e, jacobian);
+    case 7: return jacobian_pass<7>(problem, x, scale, e, jacobian);
+    case 8: return jacobian_pass<8>(problem, x, scale, e, jacobian);
+    default: return false;
+  }
+}
+
+// Levenberg-Marquardt on all the data from a point the polish on the search subset found (so
+// close that a few steps do): each step costs one dual-number pass and one plain pass of the
+// model. Bounds as the polish treats them (a parameter on a bound whose gradient points out
+// is held). On return x is the best point found, e and jacobian are at x (when the last step
+// was too small to matter: at the point before it). Returns the number of passes with
+// derivatives; 0 when the first one failed.
+int refine_on_all(const Problem& problem, std::vector<double>& x, const std::vector<double>& lower,
+                  const std::vector<double>& upper, Eigen::VectorXd& e, Eigen::MatrixXd& jacobian,
+                  std::uint64_t* plain_passes) {
+  const auto n = static_cast<Eigen::Index>(x.size());
+  auto physical_cost = [&](const std::vector<double>& v) {
+    std::vector<double> p(v.size());
+    for (std::size_t j = 0; j < v.size(); ++j) p[j] = v[j] * problem.scale[static_cast<std::size_t>(problem.free[j])];
+    ++*plain_passes;
+    return problem.cost(problem.assemble(p.data(), nullptr));
+  };
+  int passes = 0;
+  double lambda = 1e-6;
+  for (int iteration = 0; iteration < 20; ++iteration) {
+    if (!jacobian_at(problem, x, problem.scale, e, jacobian)) return passes;
+    ++passes;
+    const double cost = 0.5 * e.squaredNorm();
+    const Eigen::MatrixXd a = jacobian.transpose() * jacobian;
+    const Eigen::VectorXd g = jacobian.transpose() * e;
+    std::vector<Eigen::Index> open;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const auto u = static_cast<std::size_t>(j);
+      const double tol = 1e-9 * (upper[u] - lower[u]);
+      const bool out_low = x[u] <= lower[u] + tol && g(j) > 0;
+      const bool out_high = x[u] >= upper[u] - tol && g(j) < 0;
+      if (!out_low && !out_high) open.push_back(j);
+    }
+    if (open.empty()) return passes;
+    const auto k = static_cast<Eigen::Index>(open.size());
+    Eigen::MatrixXd sub(k, k);
+    Eigen::VectorXd rhs(k);
+    for (Eigen::Index a1 = 0; a1 < k; ++a1) {
+      rhs(a1) = -g(open[static_cast<std::size_t>(a1)]);
+      for (Eigen::Index b1 = 0; b1 < k; ++b1) sub(a1, b1) = a(open[static_cast<std::size_t>(a1)], open[static_cast<std::size_t>(b1)]);
+    }
+    bool accepted = false, negligible = false;
+    for (int attempt = 0; attempt < 8 && !accepted; ++attempt) {
+      Eigen::MatrixXd damped = sub;
+      for (Eigen::Index d = 0; d < k; ++d) damped(d, d) += lambda * std::max(sub(d, d), 1e-300);
+      const Eigen::VectorXd step = damped.ldlt().solve(rhs);
+      if (!step.allFinite()) {
+        lambda *= 10;
+        continue;
+      }
+      std::vector<double> trial = x;
+      double largest = 0;
+      for (Eigen::Index a1 = 0; a1 < k; ++a1) {
+        const auto u = static_cast<std::size_t>(open[static_cast<std::size_t>(a1)]);
+        trial[u] = std::clamp(x[u] + step(a1), lower[u], upper[u]);
+        largest = std::max(largest, std::abs(trial[u] - x[u]) / std::max(std::abs(x[u]), 1e-12));
+      }
+      const double trial_cost = physical_cost(trial);
+      if (trial_cost < cost) {
+        accepted = true;
+        negligible = (cost - trial_cost) <= 1e-12 * cost || largest < 1e-10;
+        lambda = std::max(lambda / 10, 1e-12);
+        if (negligible) return passes;  // e and jacobian stay those of x: the step changes nothing that matters
+        x = std::move(trial);
+      } else {
+        lambda *= 10;
+      }
+    }
+    if (!accepted) {
+      return passes;  // no step lowers the cost: x is the minimum to rounding
+    }
+  }
+  jacobian_at(problem, x, problem.scale, e, jacobian);
+  return passes + 1;
+}
 
 FitMetrics metrics_of(const Problem& problem, const Params& p) {
   const auto& d = *problem.data;
@@ -285,10 +476,14 @@ double autocorrelation_factor(const std::vector<double>& e) {
   double c0 = 0;
   for (double v : e) c0 += (v - mean) * (v - mean);
   if (!(c0 > 0)) return 1.0;
+  // On long data every `stride`-th product estimates the lag's covariance as well (the cost
+  // stays that of 100,000 samples per lag).
+  const std::size_t stride = std::max<std::size_t>(1, n / 100000);
   auto rho = [&](std::size_t lag) {
     double c = 0;
-    for (std::size_t k = lag; k < n; ++k) c += (e[k] - mean) * (e[k - lag] - mean);
-    return c / c0;
+    std::size_t terms = 0;
+    for (std::size_t k = lag; k < n; k += stride, ++terms) c += (e[k] - mean) * (e[k - lag] - mean);
+    return stride == 1 ? c / c0 : c * static_cast<double>(n - lag) / static_cast<double>(terms) / c0;
   };
   double sum = 0;
   const std::size_t max_lag = n / 4;
@@ -362,6 +557,19 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
   fit.asymmetric = options.asymmetric;
   fit.free = problem.free;
 
+  // The search's samples: all of them, or on long data a constant-size set of windows.
+  std::vector<std::size_t> segment_start, origin;
+  const JointSeries subset = search_subset(data, gains, options.search_subset, &segment_start, &fit.subset, &origin);
+  std::optional<Problem> subset_problem;
+  if (fit.subset.used) {
+    subset_problem.emplace(subset, gains, kind, options);
+    std::vector<std::size_t> unknown;
+    for (std::size_t g : segment_start)
+      if (data.restart[origin[g]] == 0) unknown.push_back(g);
+    subset_problem->set_unknown_starts(unknown, gains.k2 > 0);
+  }
+  const Problem& search = fit.subset.used ? *subset_problem : problem;
+
   // Global search in physical units over the free parameters' box.
   Bounds box;
   for (int i : problem.free) {
@@ -377,7 +585,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     };
   }
   fit.global = minimize_global(
-      [&](std::span<const double> x) { return problem.cost(problem.assemble(x.data(), nullptr)); },
+      [&](std::span<const double> x) { return search.cost(search.assemble(x.data(), nullptr)); },
       box, global);
   if (!std::isfinite(fit.global.cost))
     throw Error("joint " + std::to_string(joint) + ": " + friction::kind_name(kind) +
@@ -400,10 +608,10 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     for (std::size_t j = 0; j < nfree; ++j) p[j] = v[j] * problem.scale[static_cast<std::size_t>(problem.free[j])];
     return problem.assemble(p.data(), nullptr);
   };
-  auto add_block = [&](ceres::Problem& cp, std::vector<double>& v) {
-    auto* cost = new ceres::DynamicAutoDiffCostFunction<Residuals, kParameterCount>(new Residuals{&problem, problem.scale});
+  auto add_block = [&](ceres::Problem& cp, std::vector<double>& v, const Problem& on) {
+    auto* cost = new ceres::DynamicAutoDiffCostFunction<Residuals, kParameterCount>(new Residuals{&on, on.scale});
     cost->AddParameterBlock(static_cast<int>(nfree));
-    cost->SetNumResiduals(static_cast<int>(problem.scored));
+    cost->SetNumResiduals(static_cast<int>(on.scored));
     cp.AddResidualBlock(cost, nullptr, v.data());
     for (std::size_t j = 0; j < nfree; ++j) {
       const auto i = static_cast<std::size_t>(problem.free[j]);
@@ -427,7 +635,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     so.num_threads = 1;
     std::vector<std::vector<double>> starts = fit.global.run_best;
     if (starts.empty()) starts.push_back(fit.global.best);
-    double best_cost = fit.global.cost;
+    double best_cost = fit.global.cost;  // on the search's samples
     int improved = 0;
     // Ceres' projected steps stall when the unconstrained step leaves the box (a bristle
     // parameter pinned at its bound makes it "converge" far from the optimum of the others):
@@ -439,13 +647,12 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       const double tol = 1e-9 * (hi - lo);
       return v[j] <= lo + tol ? -1 : (v[j] >= hi - tol ? +1 : 0);
     };
-    for (const auto& start_point : starts) {
-      std::vector<double> v = scaled(start_point);
+    // Polishes v in place on `on`; false when Ceres found no usable solution.
+    auto polish_from = [&](std::vector<double>& v, const Problem& on, ceres::Solver::Summary& summary) {
       std::vector<int> held;
-      ceres::Solver::Summary summary;
       for (int round = 0; round < 4; ++round) {
         ceres::Problem cp;
-        add_block(cp, v);
+        add_block(cp, v, on);
         if (!held.empty()) {
           if (held.size() == nfree) break;
           cp.SetManifold(v.data(), new ceres::SubsetManifold(static_cast<int>(nfree), held));
@@ -457,7 +664,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
         if (!summary.IsSolutionUsable()) break;
         // The full gradient (no manifold) decides which bounds stay active.
         ceres::Problem full;
-        add_block(full, v);
+        add_block(full, v, on);
         std::vector<double> gradient;
         double c = 0;
         if (!full.Evaluate(ceres::Problem::EvaluateOptions(), &c, nullptr, &gradient, nullptr)) break;
@@ -470,9 +677,16 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
         if (next == held) break;
         held = next;
       }
-      if (!summary.IsSolutionUsable()) continue;
+      return summary.IsSolutionUsable();
+    };
+    // On a subset the cost of the global search is not the cost of all the data: the starts
+    // are polished on the subset, and the best end point once more on all the data.
+    for (const auto& start_point : starts) {
+      std::vector<double> v = scaled(start_point);
+      ceres::Solver::Summary summary;
+      if (!polish_from(v, search, summary)) continue;
       const Params candidate = physical(v);
-      const double c = problem.cost(candidate);
+      const double c = search.cost(candidate);
       if (c <= best_cost) {
         best_cost = c;
         fit.parameters = candidate;
@@ -481,13 +695,43 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
         ++improved;
       }
     }
-    fit.evaluations += fit.polish_residual_evaluations + fit.polish_jacobian_evaluations;
     if (!improved) fit.polish_message = "no polish improved on the global search; kept its result";
     else if (starts.size() > 1)
       fit.polish_message = "best of " + std::to_string(starts.size()) + " starts: " + fit.polish_message;
+    fit.evaluations += fit.polish_residual_evaluations + fit.polish_jacobian_evaluations;
   }
-  ceres::Problem ceres_problem;
-  add_block(ceres_problem, x);
+  // The Jacobian over every counted sample (the uncertainties' basis); on a subset, first the
+  // steps that take the subset's optimum to the optimum of all the data.
+  Eigen::VectorXd final_residuals;
+  Eigen::MatrixXd jacobian;
+  bool have_jacobian = false;
+  if (fit.subset.used && options.polish.enabled) {
+    std::vector<double> lower(nfree), upper(nfree);
+    for (std::size_t j = 0; j < nfree; ++j) {
+      const auto i = static_cast<std::size_t>(problem.free[j]);
+      lower[j] = options.bounds.lower[i] / problem.scale[i];
+      upper[j] = options.bounds.upper[i] / problem.scale[i];
+    }
+    std::uint64_t plain = 0;
+    const double before = problem.cost(fit.parameters);
+    std::vector<double> v = x;
+    const int passes = refine_on_all(problem, v, lower, upper, final_residuals, jacobian, &plain);
+    have_jacobian = passes > 0;
+    const Params candidate = physical(v);
+    const double after = problem.cost(candidate);
+    if (have_jacobian && after <= before) {
+      fit.parameters = candidate;
+      x = v;
+    }
+    fit.polish_jacobian_evaluations += static_cast<std::uint64_t>(passes);
+    fit.polish_residual_evaluations += plain;
+    fit.evaluations += static_cast<std::uint64_t>(passes) + plain;
+    fit.polish_message += "; on all " + std::to_string(problem.scored) + " samples: cost " + format("%.6g", before) +
+                          " -> " + format("%.6g", std::min(before, after)) + " Nm^2 in " + std::to_string(passes) +
+                          " passes with derivatives";
+  }
+  if (!have_jacobian) have_jacobian = jacobian_at(problem, x, problem.scale, final_residuals, jacobian);
+  if (!have_jacobian) jacobian.resize(0, 0);
   fit.metrics = metrics_of(problem, fit.parameters);
 
   // Standard errors: sigma^2 (J^T J)^-1 with sigma^2 = SSE / (m - p), inflated by the
@@ -505,18 +749,6 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
 
   // The Jacobian with unit columns: its condition number, and its null directions (singular
   // values below 1e-7 of the largest, i.e. eigenvalues of J^T J below Ceres' default 1e-14).
-  Eigen::MatrixXd jacobian;
-  {
-    ceres::Problem::EvaluateOptions eo;
-    ceres::CRSMatrix crs;
-    double c = 0;
-    if (ceres_problem.Evaluate(eo, &c, nullptr, nullptr, &crs)) {
-      jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
-      for (int row = 0; row < crs.num_rows; ++row)
-        for (int e = crs.rows[static_cast<std::size_t>(row)]; e < crs.rows[static_cast<std::size_t>(row) + 1]; ++e)
-          jacobian(row, crs.cols[static_cast<std::size_t>(e)]) = crs.values[static_cast<std::size_t>(e)];
-    }
-  }
   // held[j]: free parameter j is in a null direction and is held fixed for the covariance of
   // the others; undetermined[j]: the reason it is not determined by the data at all.
   std::vector<bool> held(nfree, false);
@@ -598,10 +830,15 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
         constexpr int kDraws = 4;
         detail::Random rng(derive_seed(seed, 0x5ee0));
         dy.setZero();
+        JointSeries noisy;  // the data without positions (the model does not read them)
+        noisy.t = data.t;
+        noisy.r = data.r;
+        noisy.restart = data.restart;
+        noisy.scored = data.scored;
+        const Problem perturbed(noisy, gains, kind, options);
         for (int draw = 0; draw < kDraws; ++draw) {
-          JointSeries noisy = data;
+          noisy.dq = data.dq;
           for (auto& v : noisy.dq) v += fit.velocity_noise * rng.normal();
-          const Problem perturbed(noisy, gains, kind, options);
           const std::vector<double> y = counted_model(perturbed, 1);
           for (Eigen::Index k = 0; k < dy.size(); ++k)
             dy(k) += (y[static_cast<std::size_t>(k)] - coarse[static_cast<std::size_t>(k)]) / kDraws;
@@ -622,35 +859,38 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
   if (!std::isfinite(variance)) {
     fit.covariance_note = "too few samples for a covariance";
   } else if (fit.covariance_note.empty() && constant.size() < nfree) {
-    // The covariance problem: parameters y_j = x_j |J_j|, so that every Jacobian column has
-    // unit norm and Ceres' rank test is scale-free (raw columns differ by many decades, e.g.
-    // sigma0 against tau_c, which would make a well-determined problem look singular).
+    // The covariance in parameters y_j = x_j |J_j|, so that every Jacobian column has unit
+    // norm and the rank test is scale-free (raw columns differ by many decades, e.g. sigma0
+    // against tau_c, which would make a well-determined problem look singular): (U^T U)^-1
+    // over the columns U not held, from their SVD, refused when its reciprocal condition
+    // number (squared singular values) is below 1e-14, as Ceres' DENSE_SVD covariance does.
     std::array<double, kParameterCount> unit_scale = problem.scale;
-    std::vector<double> y(nfree);
     for (std::size_t j = 0; j < nfree; ++j) {
       const auto i = static_cast<std::size_t>(problem.free[j]);
       const double n = column_norm[j] > 0 ? column_norm[j] : 1.0;
       unit_scale[i] = problem.scale[i] / n;
-      y[j] = x[j] * n;
     }
-    auto* unit_cost = new ceres::DynamicAutoDiffCostFunction<Residuals, kParameterCount>(
-        new Residuals{&problem, unit_scale});
-    unit_cost->AddParameterBlock(static_cast<int>(nfree));
-    unit_cost->SetNumResiduals(static_cast<int>(problem.scored));
-    ceres::Problem covariance_problem;
-    covariance_problem.AddResidualBlock(unit_cost, nullptr, y.data());
-    if (!constant.empty())
-      covariance_problem.SetManifold(y.data(), new ceres::SubsetManifold(static_cast<int>(nfree), constant));
-    ceres::Covariance::Options co;
-    co.algorithm_type = ceres::DENSE_SVD;
-    co.null_space_rank = 0;
-    co.min_reciprocal_condition_number = 1e-14;
-    co.num_threads = 1;
-    ceres::Covariance covariance(co);
-    std::vector<std::pair<const double*, const double*>> blocks{{y.data(), y.data()}};
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(nfree, nfree);
-    if (covariance.Compute(blocks, &covariance_problem) &&
-        covariance.GetCovarianceBlock(y.data(), y.data(), c.data())) {
+    std::vector<Eigen::Index> kept;
+    for (std::size_t j = 0; j < nfree; ++j)
+      if (!held[j]) kept.push_back(static_cast<Eigen::Index>(j));
+    Eigen::MatrixXd unit(jacobian.rows(), static_cast<Eigen::Index>(kept.size()));
+    for (std::size_t c = 0; c < kept.size(); ++c) {
+      const double n = column_norm[static_cast<std::size_t>(kept[c])];
+      unit.col(static_cast<Eigen::Index>(c)) = jacobian.col(kept[c]) / (n > 0 ? n : 1.0);
+    }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(unit, Eigen::ComputeThinV);
+    const auto& sv = svd.singularValues();
+    Eigen::MatrixXd c = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(nfree), static_cast<Eigen::Index>(nfree));
+    const bool invertible = sv.size() > 0 && sv(sv.size() - 1) > 0 &&
+                            std::pow(sv(sv.size() - 1) / sv(0), 2) >= 1e-14;
+    if (invertible) {
+      const Eigen::MatrixXd v = svd.matrixV();
+      const Eigen::MatrixXd kept_covariance = v * sv.cwiseInverse().cwiseAbs2().asDiagonal() * v.transpose();
+      for (std::size_t a = 0; a < kept.size(); ++a)
+        for (std::size_t b = 0; b < kept.size(); ++b)
+          c(kept[a], kept[b]) = kept_covariance(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+    }
+    if (invertible) {
       const double factor = variance * fit.autocorrelation_factor;
       for (std::size_t a = 0; a < nfree; ++a) {
         if (held[a]) continue;
@@ -671,7 +911,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
         fit.covariance_note = "ill-conditioned (condition number " + format("%.3g", fit.condition_number) +
                               "): standard errors are first-order estimates at best";
     } else {
-      fit.covariance_note = "ceres could not compute the covariance";
+      fit.covariance_note = "the covariance could not be computed (the Jacobian is numerically singular)";
     }
   } else if (fit.covariance_note.empty()) {
     fit.covariance_note = "no parameter is determined by the data";
@@ -803,10 +1043,22 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const std::vector<observer::Gains>& gains,
                                  const FitOptions& options, int threads,
                                  const JointProgressCallback& progress) {
+  return fit_joints(data, gains, std::vector<FitOptions>(data.size(), options), threads, progress);
+}
+
+std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
+                                 const std::vector<observer::Gains>& gains,
+                                 const std::vector<FitOptions>& joint_options, int threads,
+                                 const JointProgressCallback& progress) {
   if (gains.size() != data.size())
     throw std::invalid_argument("friction fit: one set of gains per joint needed");
+  if (joint_options.size() != data.size())
+    throw std::invalid_argument("friction fit: one set of options per joint needed");
+  if (data.empty()) return {};
   std::string why;
-  if (!options.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
+  for (const auto& o : joint_options)
+    if (!o.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
+  const FitOptions& options = joint_options.front();  // the model and its comparisons: the same for every joint
   for (std::size_t i = 0; i < data.size(); ++i) {
     if (!gains[i].IsValid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
     if (data[i].scored_count() == 0)
@@ -826,8 +1078,6 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
     for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::symmetric});
   if (options.kind == Kind::lugre && options.compare_static)
     for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::static_model});
-  FitOptions symmetric = options;
-  symmetric.asymmetric = false;
   std::vector<JointFit> results(data.size());
   std::vector<std::exception_ptr> errors(tasks.size());
   std::atomic<std::size_t> next{0};
@@ -840,8 +1090,9 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
         const auto start = std::chrono::steady_clock::now();
         const bool is_static = task.which == Which::static_model;
         const bool is_symmetric = task.which == Which::symmetric;
-        ModelFit fit = fit_model(d, gains[task.joint], is_static ? Kind::stribeck : options.kind,
-                                 is_symmetric ? symmetric : options,
+        FitOptions own = joint_options[task.joint];
+        if (is_symmetric) own.asymmetric = false;
+        ModelFit fit = fit_model(d, gains[task.joint], is_static ? Kind::stribeck : own.kind, own,
                                  derive_seed(seed, is_static ? 1 : is_symmetric ? 2 : 0), d.joint, progress);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         auto& r = results[task.joint];  // each slot written by one task only

@@ -57,7 +57,12 @@ json model_json(const ModelFit& m) {
                    {"generations", m.global.generations},
                    {"runs", m.global.runs},
                    {"seconds", m.global.seconds},
-                   {"message", m.global.message}};
+                   {"message", m.global.message},
+                   {"subset", {{"used", m.subset.used},
+                               {"segments", m.subset.segments},
+                               {"samples", m.subset.samples},
+                               {"counted", m.subset.counted},
+                               {"counted_total", m.subset.counted_total}}}};
   out["polish"] = {{"iterations", m.polish_iterations},
                    {"residual_evaluations", m.polish_residual_evaluations},
                    {"jacobian_evaluations", m.polish_jacobian_evaluations},
@@ -163,6 +168,13 @@ json report_json(const FitReport& r) {
     entry["velocity_noise"] = number(j.velocity_noise);
     entry["min_speed"] = number(j.min_speed);
     entry["excluded_slow_samples"] = j.excluded_slow;
+    json joint_bounds = json::object();
+    for (int i = 0; i < kParameterCount; ++i)
+      joint_bounds[friction::kParameterNames[i]] = {number(j.bounds.lower[static_cast<std::size_t>(i)]),
+                                                    number(j.bounds.upper[static_cast<std::size_t>(i)])};
+    entry["bounds"] = joint_bounds;
+    entry["widenings"] = j.widenings;
+    entry["failure"] = j.failure;
     entry["observer_gains"] = {{"k1", j.gains.k1}, {"k2", j.gains.k2}, {"k3", j.gains.k3}};
     entry["fit"] = model_json(j.fit.model);
     entry["static"] = j.fit.static_model ? model_json(*j.fit.static_model) : json(nullptr);
@@ -220,11 +232,18 @@ std::string report_text(const FitReport& r) {
     if (j.min_speed > 0)
       out += printf_string("  %zu samples slower than %.3g rad/s (velocity noise %.3g rad/s) or settling after them not counted\n",
                            j.excluded_slow, j.min_speed, j.velocity_noise);
+    out += printf_string("  search box sigma2 <= %.4g, tau_c, tau_s <= %.4g, w_s <= %.4g%s\n", j.bounds.upper[2],
+                         j.bounds.upper[3], j.bounds.upper[5],
+                         j.widenings ? printf_string(" (widened %d time%s)", j.widenings, j.widenings == 1 ? "" : "s").c_str() : "");
+    if (!j.failure.empty()) out += "  FAILED: " + j.failure + "\n";
     out += "  " + metrics_line(m.metrics) +
            printf_string("  %llu evaluations  %.3f s\n", static_cast<unsigned long long>(m.evaluations), m.seconds);
     if (m.global.runs > 0 && r.options.polish.enabled)
       out += printf_string("  global search rms %.4g Nm (%s), polish: %d iterations\n", m.global_metrics.rms,
                            m.global.message.c_str(), m.polish_iterations);
+    if (m.subset.used)
+      out += printf_string("  searched on %zu of %zu counted samples (%zu windows), polished on all\n",
+                           m.subset.counted, m.subset.counted_total, m.subset.segments);
     append_parameters(out, m, "  ");
     std::string strong;
     for (Eigen::Index a = 0; a < m.correlation.rows(); ++a)

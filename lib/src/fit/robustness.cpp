@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <unordered_map>
 
 namespace momentum::fit {
 
@@ -28,18 +29,35 @@ template <class Feature>
 Eigen::MatrixXd filtered_features(const JointSeries& d, const observer::Gains& gains, std::size_t count,
                                   const Feature& feature, const std::vector<std::size_t>& rows) {
   Eigen::MatrixXd x(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(count));
-  std::vector<observer::DisturbanceFilter<double>> filters(count, observer::DisturbanceFilter<double>(gains));
-  std::vector<double> value(count);
+  // DisturbanceFilter's arithmetic, with the coefficients of each distinct interval computed
+  // once (decimal time stamps alternate between a few intervals that differ in their last bits).
+  std::unordered_map<double, observer::FilterCoefficients> known;
+  std::vector<observer::FilterState<double>> filters(count);
+  std::vector<double> value(count), previous(count, 0.0);
   std::size_t next = 0;
   for (std::size_t k = 0; k < d.size(); ++k) {
     feature(k, value);
-    const double dt = k ? d.t[k] - d.t[k - 1] : 0.0;
-    for (std::size_t c = 0; c < count; ++c) {
-      if (d.restart[k]) filters[c].reset();
-      const double y = filters[c].step(value[c], dt);
-      if (next < rows.size() && rows[next] == k) x(static_cast<Eigen::Index>(next), static_cast<Eigen::Index>(c)) = y;
+    const bool start = k == 0 || d.restart[k] != 0;
+    const observer::FilterCoefficients* c = nullptr;
+    if (!start) {
+      const double dt = d.t[k] - d.t[k - 1];
+      auto it = known.find(dt);
+      if (it == known.end()) it = known.emplace(dt, observer::discretize(gains, dt)).first;
+      c = &it->second;
     }
-    if (next < rows.size() && rows[next] == k) ++next;
+    const bool row = next < rows.size() && rows[next] == k;
+    for (std::size_t f = 0; f < count; ++f) {
+      double y = 0;
+      if (start) {
+        filters[f].reset();
+      } else {
+        filters[f].advance(*c, previous[f], value[f]);
+        y = filters[f].output(*c);
+      }
+      previous[f] = value[f];
+      if (row) x(static_cast<Eigen::Index>(next), static_cast<Eigen::Index>(f)) = y;
+    }
+    if (row) ++next;
   }
   return x;
 }

@@ -27,6 +27,7 @@
 
 #include "momentum/fit/data.hpp"
 #include "momentum/fit/genetic.hpp"
+#include "momentum/fit/subset.hpp"
 #include "momentum/friction/friction.hpp"
 #include "momentum/observer/filter.hpp"
 
@@ -82,6 +83,10 @@ struct FitOptions {
   std::array<std::optional<double>, kParameterCount> fixed{};
   GlobalOptions global;    // method, genetic settings (paper defaults), seed
   PolishOptions polish;
+  // The samples the global search (and the polish from each of its runs) sees: a constant-size
+  // set of windows on long data (subset.hpp). The final polish, the metrics and the
+  // uncertainties use every sample.
+  SubsetOptions search_subset;
   // Also fit the static Stribeck model and report it beside LuGre (LuGre fits only).
   bool compare_static = true;
   // Fit direction-dependent levels (delta_c, delta_s: friction::Parameters) as well, and the
@@ -114,7 +119,7 @@ struct ParameterEstimate {
   double value = 0;
   bool free = false;            // fitted (false: fixed by the user, or unused by the model)
   bool used = false;            // the model uses it
-  // Standard error (same unit as the value); NaN when not free or when the covariance could
+  // Standard error (same unit as the value), from every counted sample; NaN when not free or when the covariance could
   // not be computed.
   double standard_error = std::numeric_limits<double>::quiet_NaN();
   // How far the estimate moves (same unit, first order) when the model resolves the motion
@@ -147,6 +152,7 @@ struct ModelFit {
   FitMetrics metrics;                               // of the final estimate
   FitMetrics global_metrics;                        // of the global search's best
   GlobalSummary global;                             // the global search
+  SubsetSummary subset;                             // the samples the global search saw
   // The polish: Ceres iterations, residual and Jacobian evaluations, its message.
   int polish_iterations = 0;
   std::uint64_t polish_residual_evaluations = 0;
@@ -210,6 +216,14 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
 std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const std::vector<observer::Gains>& gains,
                                  const FitOptions& options, int threads = 0,
+                                 const JointProgressCallback& progress = {});
+
+// The same with options per joint (joint_options[i] for data[i], e.g. each joint's own search
+// box); the model, the comparisons (compare_static, asymmetric) and the seed are those of
+// joint_options[0] for every joint. Throws std::invalid_argument when the sizes differ.
+std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
+                                 const std::vector<observer::Gains>& gains,
+                                 const std::vector<FitOptions>& joint_options, int threads = 0,
                                  const JointProgressCallback& progress = {});
 
 }  // namespace momentum::fit

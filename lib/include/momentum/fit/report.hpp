@@ -19,6 +19,9 @@ namespace momentum::fit {
 // One joint of a report: the fit and what it is compared with.
 struct JointReport {
   JointFit fit;
+  ParameterBounds bounds;             // the search box of the fit (identify.hpp)
+  int widenings = 0;                  // refits in wider boxes
+  std::string failure;                // why the fit is not usable; empty when it is
   observer::Gains gains;              // the observer filter used in the model
   double sample_rate_hz = 0;          // 1 / median dt of the joint's data
   double velocity_noise = 0;          // estimated velocity noise, rad/s (estimate_velocity_noise)
