@@ -7,7 +7,9 @@ if(rc)
   message(FATAL_ERROR "cmake --install failed: ${rc}")
 endif()
 foreach(required bin/mo-cat share/man/man1/mo-cat.1 share/man/man5/mo-log.5
-                 include/momentum/stream/reader.hpp lib/cmake/momentum/momentumConfig.cmake)
+                 include/momentum/stream/reader.hpp lib/cmake/momentum/momentumConfig.cmake
+                 share/bash-completion/completions/mo-cat share/zsh/site-functions/_mo-cat
+                 share/momentum/examples/library/CMakeLists.txt)
   if(NOT EXISTS ${WORK_DIR}/prefix/${required})
     message(FATAL_ERROR "not installed: ${required}")
   endif()
