@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Installs everything momentum needs from Debian's packages, then configures and builds it.
-#   scripts/setup.sh [BUILD_DIR [extra cmake args...]]     (default build dir: build)
+#   scripts/setup.sh [--target T]... [BUILD_DIR [extra cmake args...]]   (default build dir: build)
+# With --target, builds only those targets (scripts/demo.sh: the tools it runs); else everything.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build pkg-config python3 git
   libeigen3-dev libceres-dev libnlopt-cxx-dev libnlopt-dev liburdfdom-dev nlohmann-json3-dev
-  libcli11-dev libgtest-dev libbenchmark-dev scdoc gnuplot-nox valgrind
+  libcli11-dev libgtest-dev libbenchmark-dev scdoc groff-base gnuplot-nox valgrind zsh
   clang-14 libclang-rt-14-dev)  # clang: the sanitizer build and the libFuzzer targets
 
 missing=()
@@ -21,7 +22,12 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
+targets=()
+while [[ ${1:-} == --target ]]; do
+  targets+=(--target "${2:?setup: --target needs a name}")
+  shift 2
+done
 build=${1:-build}
 shift || true
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
-cmake --build "$build" -j"$(nproc)"
+cmake --build "$build" -j"$(nproc)" "${targets[@]}"

@@ -5,6 +5,7 @@
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/detect/calibration.hpp"
+#include "momentum/detect/events_json.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -13,6 +14,7 @@ using namespace momentum;
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-calibrate", "Collision thresholds per joint from collision-free motion, into the profile.");
+  tool.app().footer("\nExample:\n  mo-observe -p arm.json day.bin | mo-calibrate -p arm.json\n\nMore: man mo-calibrate");
   tool.add_inputs("streams of collision-free motion with mu<j> and/or r<j> (- or none: stdin)");
   tool.add_profile(/*required=*/false);
   std::string output, signals_option, rule = "rate";
@@ -60,6 +62,9 @@ int main(int argc, char** argv) {
   app.add_flag("--reject-contact", reject_contact, "fail, writing nothing, when a max looks like a contact");
   app.add_flag("-n,--dry-run", dry_run, "print the report, do not write the profile");
   app.add_flag("--strict", strict, "stop at the first bad row instead of skipping it");
+  std::string format = "text";
+  app.add_option("--format", format, "report as text (default) or jsonl: one JSON object per line")
+      ->check(CLI::IsMember({"text", "jsonl"}));
 
   return tool.run(argc, argv, [&] {
     if (*margin_option) options.margin_nm = margin;
@@ -141,13 +146,23 @@ int main(int argc, char** argv) {
     for (const auto& c : calibrators) results.push_back(c.result());
     bool contact = false;
     std::vector<std::string> rises;
+    const nlohmann::json identity =
+        profile ? detect::profile_identity(profile->document, tool.profile()) : nlohmann::json(nullptr);
     for (const auto& r : results) {
+      if (profile && max_rise > 0)
+        if (auto old = detect::thresholds_from_profile(profile->document, r.thresholds.signal, tool.profile()))
+          for (auto& rise : detect::threshold_rises(*old, r.thresholds, max_rise)) rises.push_back(rise);
+      if (format == "jsonl") {
+        const std::string lines = detect::calibration_json_lines(r, identity);
+        std::fwrite(lines.data(), 1, lines.size(), stdout);
+        for (const auto& w : r.warnings) warn(w);
+        contact = contact || r.any_contact();
+        continue;
+      }
       std::string report = detect::format_calibration_report(r);
       if (profile) {
         auto old = detect::thresholds_from_profile(profile->document, r.thresholds.signal, tool.profile());
         report += detect::format_threshold_changes(old ? &*old : nullptr, r.thresholds);
-        if (old && max_rise > 0)
-          for (auto& rise : detect::threshold_rises(*old, r.thresholds, max_rise)) rises.push_back(rise);
       }
       std::fwrite(report.data(), 1, report.size(), stdout);
       for (const auto& w : r.warnings) warn(w);

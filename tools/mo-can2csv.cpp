@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "momentum/can/candump.hpp"
 #include "momentum/can/codec.hpp"
 #include "momentum/can/cycle.hpp"
@@ -53,6 +55,7 @@ struct Stopped {};
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-can2csv", "Decode CAN captures (candump text or live SocketCAN) into a sample stream.");
+  tool.app().footer("\nExample:\n  candump -L can0 | mo-can2csv --dbc arm.dbc > arm.csv\n\nMore: man mo-can2csv");
   tool.add_inputs("candump text files, concatenated; - or none: stdin");
   std::string dbc_path, interface, map_path, sync_text, cycle_message, output = "-", output_format = "csv";
   std::string timestamps = "auto", bus;
@@ -77,6 +80,9 @@ int main(int argc, char** argv) {
       ->type_name("MODE");
   app.add_option("--bus", bus, "keep only frames captured on this interface (candump any)")->type_name("IFACE");
   app.add_flag("--stats", stats, "print counters on stderr at the end (and on SIGUSR1)");
+  std::string stats_format = "text";
+  app.add_option("--stats-format", stats_format, "--stats as text (default) or jsonl: one JSON object per report")
+      ->check(CLI::IsMember({"text", "jsonl"}));
   app.add_option("-o,--output", output, "output file (default: stdout)")->type_name("FILE");
   app.add_option("--output-format", output_format, "csv or bin (default csv)")->type_name("FORMAT");
   app.add_flag("--line-buffered", line_buffered, "flush every row (automatic for live input)");
@@ -120,6 +126,27 @@ int main(int argc, char** argv) {
       if (socket) {
         lost += socket->stats().lost_frames;
         frames += socket->stats().frames;
+      }
+      if (stats_format == "jsonl") {
+        nlohmann::json line = {{"frames_read", frames}, {"bad_lines", bad_lines}, {"lost_frames", lost},
+                               {"filtered", filtered}};
+        if (cycles) {
+          const can::CycleStats& s = cycles->stats();
+          line.update({{"decoded", s.decoded}, {"unknown_ids", s.unknown_ids}, {"sync", s.sync_frames},
+                       {"error_frames", s.error_frames}, {"remote", s.remote_frames}, {"short", s.short_frames},
+                       {"bad_records", totals.bad_records + (socket ? socket->stats().bad_records : 0)},
+                       {"before_first_cycle", s.before_first_cycle}, {"cycles_complete", s.complete_cycles},
+                       {"cycles_incomplete", s.incomplete_cycles}, {"values_missing", s.missing_values},
+                       {"values_held", s.held_values}, {"values_repeated", s.repeated_values},
+                       {"empty_periods", s.empty_periods}});
+        } else if (long_writer) {
+          const can::SignalRowCounts& c = long_writer->counts();
+          line.update({{"decoded", c.decoded}, {"unknown_ids", c.unknown_ids}, {"short", c.short_frames}});
+        }
+        const std::string text = line.dump() + "\n";
+        std::fwrite(text.data(), 1, text.size(), stderr);
+        std::fflush(stderr);
+        return;
       }
       std::string out;
       char line[512];

@@ -1,8 +1,13 @@
 // mo-cat: convert sample streams between CSV and binary, select, rename and scale columns,
 // mend timing faults, or describe a log (--stats).
+#include <algorithm>
 #include <cinttypes>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <optional>
+
+#include <nlohmann/json.hpp>
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/stream/columns.hpp"
@@ -43,6 +48,37 @@ void print_stats(const stream::StreamStats& stats, std::FILE* out) {
   std::fputs(any ? "\n" : " none\n", out);
 }
 
+// --stats as one JSON object (mo-cat(1), JSON LINES): every number of the text form, the
+// anomalies with their first places, NaN counts per column; time fields null without a 't'.
+void print_stats_json(const stream::StreamStats& stats, const std::vector<std::string>& inputs, std::FILE* out) {
+  const auto s = stats.summary();
+  auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+  auto anomaly = [](const stream::StreamStats::Anomaly& a) {
+    return nlohmann::json{{"count", a.count}, {"first", a.first}};
+  };
+  nlohmann::json nan = nlohmann::json::object();
+  for (std::size_t i = 0; i < s.nan_per_column.size(); ++i) nan[stats.columns()[i]] = s.nan_per_column[i];
+  nlohmann::json line = {{"sources", inputs}, {"rows", s.rows}, {"columns", stats.columns()}, {"nan", nan}};
+  const char* timed[] = {"t_first", "t_last", "dt_min", "dt_median", "dt_max", "gaps", "irregular",
+                         "backwards", "same_time", "duplicates", "frozen"};
+  for (const char* key : timed) line[key] = nullptr;
+  if (s.has_time) {
+    line["t_first"] = number(s.t_first);
+    line["t_last"] = number(s.t_last);
+    line["dt_min"] = number(s.dt_min);
+    line["dt_median"] = number(s.dt_median);
+    line["dt_max"] = number(s.dt_max);
+    line["gaps"] = anomaly(s.gaps);
+    line["irregular"] = s.irregular;
+    line["backwards"] = anomaly(s.backwards);
+    line["same_time"] = anomaly(s.repeated_time);
+    line["duplicates"] = anomaly(s.duplicates);
+    line["frozen"] = anomaly(s.frozen);
+  }
+  const std::string text = line.dump() + "\n";
+  std::fwrite(text.data(), 1, text.size(), out);
+}
+
 // "--scale q1-6=0.0174532925199433": factor per output column (1 where none is given).
 std::vector<double> parse_scales(const std::vector<std::string>& specs, const std::vector<std::string>& columns) {
   std::vector<double> factor(columns.size(), 1.0);
@@ -57,10 +93,20 @@ std::vector<double> parse_scales(const std::vector<std::string>& specs, const st
   return factor;
 }
 
+// True for a whole CSV field that is a number ("0.001", "-3", "1e-3", "nan"), as a header-less
+// row's fields are and a column name never is.
+bool looks_like_number(const std::string& field) {
+  if (field.empty()) return false;
+  char* end = nullptr;
+  std::strtod(field.c_str(), &end);
+  return end == field.c_str() + field.size();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-cat", "Convert, select, scale, mend and describe sample streams.");
+  tool.app().footer("\nExample:\n  mo-cat --stats arm.csv\n\nMore: man mo-cat");
   tool.add_inputs("input streams, concatenated (same columns); - or none: stdin");
   tool.add_stream_output();
   std::string columns, names;
@@ -77,6 +123,9 @@ int main(int argc, char** argv) {
   app.add_flag("--repair", repair, "drop exact duplicate rows and rows out of time order, and say which");
   app.add_option("--head", head, "stop after N rows")->type_name("N")->check(cli::whole_number());
   app.add_flag("--stats", stats, "describe the stream on stdout instead of copying it");
+  std::string stats_format = "text";
+  app.add_option("--stats-format", stats_format, "--stats as text (default) or jsonl: one JSON object")
+      ->check(CLI::IsMember({"text", "jsonl"}));
 
   return tool.run(argc, argv, [&] {
     std::vector<std::string> inputs = tool.inputs();
@@ -106,6 +155,11 @@ int main(int argc, char** argv) {
       auto in = tool.open_input(path, read_options);
       current = in.get();
       if (first_columns.empty()) {
+        // A vendor export without a header would otherwise have its first row taken as names.
+        if (read_options.names.empty() && !in->columns().empty() &&
+            std::all_of(in->columns().begin(), in->columns().end(), looks_like_number))
+          throw Error(in->name() + ": no header: the first line holds only numbers (" + in->columns().front() +
+                      ", ...); name the columns with --names (see man mo-cat)");
         first_columns = in->columns();
         std::vector<std::string> selected = columns.empty() ? in->columns() : stream::expand_column_list(columns);
         pick = stream::column_indices(in->columns(), selected, in->name());
@@ -168,7 +222,8 @@ int main(int argc, char** argv) {
              " duplicate and " + std::to_string(m.out_of_order) + " out of time order");
     }
     if (out) out->close();
-    if (summary) print_stats(*summary, stdout);
+    if (summary && stats_format == "jsonl") print_stats_json(*summary, inputs, stdout);
+    else if (summary) print_stats(*summary, stdout);
     if (skipped) {
       warn(std::to_string(skipped) + " bad row" + (skipped == 1 ? "" : "s") + " skipped");
       return cli::kFailure;

@@ -17,6 +17,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/detector.hpp"
+#include "momentum/detect/events_json.hpp"
 #include "momentum/detect/live.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
@@ -48,6 +49,7 @@ detect::Thresholds choose_thresholds(const cli::Tool& tool, detect::Signal signa
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-detect", "Collision events from residuals; exit status 1 when any (0 none, 2 error).");
+  tool.app().footer("\nExample:\n  mo-observe -p arm.json log.bin | mo-detect -p arm.json > events.csv\n\nMore: man mo-detect");
   tool.add_inputs("input stream (- or none: stdin)");
   tool.add_stream_output();
   tool.add_profile(/*required=*/false);
@@ -77,6 +79,9 @@ int main(int argc, char** argv) {
   app.add_option("--events", events_path, "with --pass: also write the events to FILE")->type_name("FILE");
   app.add_option("--on-collision", command, "run CMD (sh -c) per event, without waiting")->type_name("CMD");
   app.add_flag("--stats", stats, "print rows, events and per-row latency on stderr at the end");
+  std::string format = "csv";
+  app.add_option("--format", format, "events as csv (default) or jsonl: one JSON object per row")
+      ->check(CLI::IsMember({"csv", "jsonl"}));
 
   std::uint64_t collisions = 0;
   const int status = tool.run(argc, argv, [&]() -> int {
@@ -147,6 +152,16 @@ int main(int argc, char** argv) {
 
       std::unique_ptr<stream::Writer> passed;
       std::unique_ptr<detect::EventWriter> events;
+      std::unique_ptr<detect::JsonLinesWriter> json_events;
+      const bool jsonl = format == "jsonl";
+      const nlohmann::json identity =
+          jsonl && !tool.profile().empty()
+              ? detect::profile_identity(model::load_profile(tool.profile()).document, tool.profile())
+              : nlohmann::json(nullptr);
+      auto write_event = [&](const detect::Event& e) {
+        if (events) events->write(e);
+        if (json_events) json_events->write(detect::event_json(e, in->name(), identity, thresholds));
+      };
       std::vector<std::string> comments = in->leading_comments();
       comments.push_back(tool.provenance());
       if (pass) {
@@ -156,7 +171,10 @@ int main(int argc, char** argv) {
         passed->header(columns);
         stream::Writer* raw = passed.get();
         in->on_comment([raw](std::string_view c) { raw->comment(c); });
-        if (!events_path.empty()) events = std::make_unique<detect::EventWriter>(events_path, n, comments);
+        if (!events_path.empty() && jsonl) json_events = std::make_unique<detect::JsonLinesWriter>(events_path);
+        else if (!events_path.empty()) events = std::make_unique<detect::EventWriter>(events_path, n, comments);
+      } else if (jsonl) {
+        json_events = std::make_unique<detect::JsonLinesWriter>(tool.output());
       } else {
         events = std::make_unique<detect::EventWriter>(tool.output(), n, comments);
       }
@@ -193,7 +211,7 @@ int main(int argc, char** argv) {
         for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
         for (std::size_t j = 0; j < irest.size(); ++j) x_rest[j] = row[irest[j]];
         for (const detect::Event& e : detector.step(t, x.data(), dq.data(), irest.empty() ? nullptr : x_rest.data())) {
-          if (events) events->write(e);
+          write_event(e);
           if (e.kind == detect::EventKind::onset) {
             ++collisions;
             if (runner) runner->launch(e);
@@ -212,7 +230,7 @@ int main(int argc, char** argv) {
         }
       }
       if (const detect::Event* e = detector.finish(interrupted ? detect::EndReason::signal : detect::EndReason::eof)) {
-        if (events) events->write(*e);
+        write_event(*e);
       }
       if (passed) passed->close();
       if (runner) runner->wait_all();

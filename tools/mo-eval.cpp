@@ -10,6 +10,7 @@ using namespace momentum;
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-eval", "Score collision events against ground truth: detections, misses, false alarms, delays, isolation.");
+  tool.app().footer("\nExample:\n  mo-eval --truth truth.csv events.csv\n\nMore: man mo-eval");
   std::string truth_path, events_path = "-";
   eval::ScoreOptions options;
   std::optional<double> duration;

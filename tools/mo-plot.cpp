@@ -5,6 +5,7 @@
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/detect/plot.hpp"
+#include "momentum/detect/plot_views.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -13,6 +14,7 @@ using namespace momentum;
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-plot", "Residuals against thresholds, with events and true contacts, to PNG or SVG.");
+  tool.app().footer("\nExample:\n  mo-plot -p arm.json --events events.csv -o plot.png observed.csv\n\nMore: man mo-plot");
   tool.add_inputs("input stream with r<j> and/or mu<j> (- or none: stdin)");
   tool.add_profile(/*required=*/false);
   std::string output, format, events_path, truth_path, signals_option;
@@ -33,6 +35,9 @@ int main(int argc, char** argv) {
   app.add_option("--panel-height", options.panel_height, "height of one joint's row in pixels (220)")->type_name("PX");
   app.add_option("--max-points", options.max_points, "time buckets per panel, min and max of each (2000)")
       ->type_name("N");
+  std::string view_name = "time";
+  app.add_option("--view", view_name, "time (default), events, mu-dq or histogram")
+      ->check(CLI::IsMember({"time", "events", "mu-dq", "histogram"}));
   app.add_flag("--script", script_only, "print the gnuplot script (which draws -o) instead of running it");
   app.add_flag("--strict", strict, "stop at the first bad row instead of skipping it");
 
@@ -84,6 +89,37 @@ int main(int argc, char** argv) {
     std::vector<detect::TruthContact> truth;
     if (!truth_path.empty()) truth = detect::read_truth(truth_path);
 
+    const detect::PlotView view = detect::parse_plot_view(view_name);
+    if (view != detect::PlotView::time) {
+      // One signal: the one asked for, else mu when the stream has it (what mo-detect uses).
+      std::size_t pick = 0;
+      if (signals_option.empty())
+        for (std::size_t s = 0; s < signals.size(); ++s)
+          if (signals[s] == detect::Signal::mu) pick = s;
+      detect::ViewData data(view, signals[pick], thresholds[pick], n, !idq.empty(), detect::event_spans(events));
+      std::vector<double> x(n), dq(n);
+      double t_prev = -INFINITY;
+      while (const double* row = in->next()) {
+        const double t = row[it];
+        if (!(t >= t_prev)) {
+          in->reject_row("time goes backwards");
+          continue;
+        }
+        t_prev = t;
+        if (t < options.from || t > options.to) continue;
+        for (std::size_t j = 0; j < n; ++j) x[j] = row[columns[pick][j]];
+        for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
+        data.add(t, x.data(), idq.empty() ? nullptr : dq.data());
+      }
+      if (data.rows() == 0) throw Error(in->name() + ": no rows to plot");
+      const std::string script = data.gnuplot_script(truth, output, options);
+      if (script_only) {
+        if (std::fwrite(script.data(), 1, script.size(), stdout) != script.size()) throw Error("cannot write the script");
+        return cli::kSuccess;
+      }
+      detect::run_gnuplot(script);
+      return cli::kSuccess;
+    }
     detect::PlotData data(signals, thresholds, n, !idq.empty(), options);
     std::vector<std::vector<double>> x(signals.size(), std::vector<double>(n));
     std::vector<const double*> rows(signals.size());

@@ -1,5 +1,6 @@
 // mo-sim: simulate a profile's arm following a trajectory, with its true friction and a campaign
 // of collisions; write what its drives would report, and the ground truth.
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -7,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "momentum/cli/progress_text.hpp"
 #include "momentum/cli/tool.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
@@ -38,6 +40,7 @@ std::string format_number(double x) {
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-sim", "Simulate an arm with friction and collisions: a sample stream and its ground truth.");
+  tool.app().footer("\nExample:\n  mo-sim -p arm.json --collisions 50 --truth truth.csv > log.csv\n\nMore: man mo-sim");
   tool.add_profile();
   tool.add_seed();
   CLI::App& app = tool.app();
@@ -176,8 +179,11 @@ int main(int argc, char** argv) {
       sim::truth_row(c, truth_values);
       truth->row(truth_values.data());
     };
+    const auto started = std::chrono::steady_clock::now();
     callbacks.progress = [&](double t) {
-      progress.update("mo-sim: " + format_number(t) + " of " + format_number(run.trajectory.duration) + " s simulated");
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      progress.update("mo-sim: " + cli::progress_text(t / run.trajectory.duration, elapsed) + " of " +
+                      format_number(run.trajectory.duration) + " s simulated");
     };
     const sim::RunSummary summary = sim::simulate(model, friction, section.home, run, tool.seed(), callbacks);
     progress.finish();

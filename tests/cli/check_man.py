@@ -18,3 +18,10 @@ if missing:
     print(f"{page}: options in --help but not in the man page: {' '.join(missing)}")
     sys.exit(1)
 print(f"{len(options)} options documented")
+# --help ends with one example and the man page to read.
+tail = help_text.rstrip().split("\n")
+name = tool.rsplit("/", 1)[-1]
+if tail[-1].strip() != f"More: man {name}" or "Example:" not in help_text or \
+        not tail[-3].strip().startswith(("mo-", "candump")):
+    print(f"{name} --help does not end with an example and 'More: man {name}':\n" + "\n".join(tail[-5:]))
+    sys.exit(1)

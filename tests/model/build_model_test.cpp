@@ -196,9 +196,9 @@ TEST_F(Validation, UnparsableUrdf) {
 
 TEST_F(Validation, UnknownLinks) {
   EXPECT_EQ(error_of(profile(two_joint("revolute"), "nope", "b")),
-            urdf() + ": unknown root link 'nope'");
+            urdf() + ": unknown root link 'nope' (the urdf's links: a, b, base)");
   EXPECT_EQ(error_of(profile(two_joint("revolute"), "base", "nope")),
-            urdf() + ": unknown tip link 'nope'");
+            urdf() + ": unknown tip link 'nope' (the urdf's links: a, b, base)");
 }
 
 TEST_F(Validation, TipNotBelowRoot) {

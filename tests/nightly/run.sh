@@ -61,8 +61,9 @@ mkdir -p "$tmp/days/empty"
 night "night 0, no logs" empty
 night "night 1, clean" clean1
 python3 - "$profile" <<'EOF'
-import json, sys
-p = json.load(open(sys.argv[1]))
+import json, re, sys
+# The profile keeps its comments (whole lines here) through the updates.
+p = json.loads(re.sub(r"(?m)^\s*//.*$", "", open(sys.argv[1]).read()))
 print("after night 1: friction", p.get("friction", {}).get("model"), "for", len(p["friction"]["joints"]), "joints;",
       "thresholds for", ",".join(sorted(p["thresholds"])), ";",
       "provenance", " ".join(e["tool"] for e in p["provenance"]))
@@ -73,3 +74,5 @@ night "night 4, broken log" broken
 night "night 5, clean" clean2
 # The candidate never stays behind, and the lock is released.
 ls -A "$tmp/etc"
+# The log names the day's logs and the profile, never the work files deleted at exit.
+echo "log lines naming work files: $(grep -c -e 'momentum-nightly\.' -e '\.candidate\.json' "$backups/nightly.log")"

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstring>
 
+#include "momentum/can/asc.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::can {
@@ -610,7 +611,8 @@ bool CandumpReader::parse_next(Frame& frame, ParsedLine& info) {
   std::string_view line;
   while (next_line(line)) {
     ++stats_.lines;
-    const LineKind kind = parse_candump_line(line, frame, info);
+    if (stats_.lines == 1 && is_asc_header(line)) asc_ = std::make_unique<AscState>();
+    const LineKind kind = asc_ ? parse_asc_line(line, frame, info, *asc_) : parse_candump_line(line, frame, info);
     if (kind == LineKind::detail && !after_error_frame_) {
       report_bad("tab-indented line not below an error frame (only candump -e details are)");
       continue;

@@ -213,6 +213,13 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
           s += "set label " + std::to_string(label++) + " " + gp_string("L" + std::to_string(e.link)) + " at " +
                num(e.t_detect) + ", graph 1.04 center tc rgb '#d62728' font ',8'\n";
         }
+        // The link each true contact was on, in the band's green, so that an isolation error
+        // (red label differing from the green one) shows at a glance.
+        for (const auto& c : truth) {
+          if (have_range && (c.t_end < t_min || c.t_onset > t_max)) continue;
+          s += "set label " + std::to_string(label++) + " " + gp_string("L" + std::to_string(c.link)) + " at " +
+               num(c.t_onset) + ", graph 0.94 left front tc rgb '#2ca02c' font ',8'\n";
+        }
       } else if (j == 1) {
         s += "unset label\n";
       }
@@ -221,14 +228,14 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
       std::string v = "$v" + std::to_string(c) + "_" + std::to_string(j);
       std::string b = "$b" + std::to_string(c) + "_" + std::to_string(j);
       s += "plot " + v + " using 1:2 with lines lc rgb '#1f77b4' lw 1 " +
-           (key ? std::string("title '") + (sig == Signal::mu ? "mu" : "r") + "'" : std::string("notitle"));
+           (key ? std::string("title '") + (sig == Signal::mu ? "mu" : "r") + " (data)'" : std::string("notitle"));
       if (data.has_band(c)) {
-        s += ", " + b + " using 1:3 with steps lc rgb '#ff7f0e' lw 1.5 " + (key ? "title 'threshold'" : "notitle");
+        s += ", " + b + " using 1:3 with steps lc rgb '#ff7f0e' lw 1.5 " + (key ? "title 'threshold (steps: moving, slow, rest)'" : "notitle");
         s += ", " + b + " using 1:2 with steps lc rgb '#ff7f0e' lw 1.5 notitle";
       }
       if (key) {
-        if (!truth.empty()) s += ", NaN with boxes fs solid 1.0 lc rgb '#c8ecc8' title 'contact (truth)'";
-        if (!events.empty()) s += ", NaN with lines lc rgb '#d62728' dt 2 title 'detected (link)'";
+        if (!truth.empty()) s += ", NaN with boxes fs solid 1.0 lc rgb '#c8ecc8' title 'true contact (green L: its link)'";
+        if (!events.empty()) s += ", NaN with lines lc rgb '#d62728' dt 2 title 'detected (red L: isolated link)'";
       }
       s += "\n";
     }

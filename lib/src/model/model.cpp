@@ -191,11 +191,18 @@ struct Builder {
     model.payload_body = it->second.body;
   }
 
+  // The URDF's links, for a message about a name that is not one of them.
+  std::string link_names() const {
+    std::string names;
+    for (const auto& item : urdf.links_) names += (names.empty() ? "" : ", ") + item.first;
+    return names.empty() ? "the urdf has no links" : "the urdf's links: " + names;
+  }
+
   Model build() const {
     const urdf::LinkConstSharedPtr root = urdf.getLink(profile.root);
     const urdf::LinkConstSharedPtr tip = urdf.getLink(profile.tip);
-    if (!root) fail("unknown root link " + in_quotes(profile.root));
-    if (!tip) fail("unknown tip link " + in_quotes(profile.tip));
+    if (!root) fail("unknown root link " + in_quotes(profile.root) + " (" + link_names() + ")");
+    if (!tip) fail("unknown tip link " + in_quotes(profile.tip) + " (" + link_names() + ")");
 
     // Links from the tip up to the root.
     std::vector<const urdf::Link*> chain;

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "momentum/model/model.hpp"
+#include "momentum/model/profile_text.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/version.hpp"
 
@@ -153,7 +154,9 @@ Profile load_profile(const std::filesystem::path& path) {
   } catch (const nlohmann::json::parse_error& e) {
     fail(path, "invalid json: " + parse_error_text(e), line_of_byte(text, e.byte));
   }
-  return profile_from_document(std::move(document), path);
+  Profile profile = profile_from_document(std::move(document), path);
+  profile.text = text;
+  return profile;
 }
 
 Profile profile_from_document(nlohmann::json document, const std::filesystem::path& path) {
@@ -246,7 +249,10 @@ void select_payload(Profile& profile, const std::string& name) {
 }
 
 void save_profile_atomically(const nlohmann::json& document, const std::filesystem::path& path) {
-  const std::string text = document.dump(2) + "\n";
+  save_profile_text_atomically(format_profile_value(document) + "\n", path);
+}
+
+void save_profile_text_atomically(const std::string& text, const std::filesystem::path& path) {
   std::filesystem::path folder = path.parent_path();
   if (folder.empty()) folder = ".";
   std::string name = ".";
@@ -307,14 +313,26 @@ void append_provenance(nlohmann::json& document, const std::string& tool,
   list.push_back({{"tool", tool}, {"version", kVersion}, {"time", stamp}, {"details", details}});
 }
 
+std::filesystem::path urdf_reference(const std::filesystem::path& urdf, const std::filesystem::path& folder) {
+  namespace fs = std::filesystem;
+  const fs::path target = fs::absolute(urdf).lexically_normal();
+  const fs::path relative = target.lexically_relative(fs::absolute(folder).lexically_normal());
+  if (relative.empty() || *relative.begin() == "..") return target;
+  return relative;
+}
+
 void save_profile_as(nlohmann::json document, const Profile& source, const std::filesystem::path& destination) {
   namespace fs = std::filesystem;
   const fs::path from = fs::absolute(source.path).parent_path();
   const fs::path to = fs::absolute(destination).parent_path();
   if (from != to && document.contains("urdf") && document["urdf"].is_string() &&
       !fs::path(document["urdf"].get<std::string>()).is_absolute())
-    document["urdf"] = fs::relative(fs::absolute(source.urdf), to).generic_string();
-  save_profile_atomically(document, destination);
+    document["urdf"] = urdf_reference(source.urdf, to).generic_string();
+  if (source.text.empty()) {
+    save_profile_atomically(document, destination);
+  } else {
+    save_profile_text_atomically(edit_profile_text(source.text, document), destination);
+  }
 }
 
 }  // namespace momentum::model

@@ -97,8 +97,21 @@ keep_old() {
   say "KEPT $profile unchanged: $*"
   exit 1
 }
+# Copies stdin to the log with the work files (deleted at exit) named by what they hold: the
+# day's log they were observed from, the candidate profile.
+names=""
+to_log() {
+  if [[ -n $names ]]; then sed -f "$names" >> "$log_file"; else cat >> "$log_file"; fi
+}
 # Runs a step; its standard error goes to the log.
 run() {
+  local status
+  if [[ -n $names ]]; then
+    "$@" 2> "$work/step.err"
+    status=$?
+    to_log < "$work/step.err"
+    return $status
+  fi
   "$@" 2>> "$log_file"
 }
 
@@ -115,6 +128,16 @@ for tool in mo-observe mo-lugre-fit mo-calibrate mo-detect; do
 done
 ((${#logs[@]} >= 2)) || keep_old "need at least 2 logs (one to calibrate on, one to check), got ${#logs[@]}"
 work=$(mktemp -d "${TMPDIR:-/tmp}/momentum-nightly.XXXXXX") || keep_old "cannot create a work folder"
+# sed's pattern and replacement, each with its special characters escaped.
+pattern() { printf '%s' "$1" | sed 's/[]\/$*.^|[]/\\&/g'; }
+replacement() { printf '%s' "$1" | sed 's/[\/&|]/\\&/g'; }
+{
+  for i in "${!logs[@]}"; do
+    echo "s|$(pattern "$work/old-$i.bin")|$(replacement "${logs[i]} (observed with the profile in place)")|g"
+    echo "s|$(pattern "$work/new-$i.bin")|$(replacement "${logs[i]} (observed with the candidate)")|g"
+  done
+  echo "s|$(pattern "$candidate")|the candidate profile|g"
+} > "$work/names.sed" && names=$work/names.sed
 
 calibrate=() check=()
 for i in "${!logs[@]}"; do
@@ -155,10 +178,10 @@ for i in "${!logs[@]}"; do
 done
 if ! run mo-calibrate -q -p "$candidate" --reject-contact --strict "${calibrate_options[@]}" "${new_calibration[@]}" \
     > "$work/calibration.txt"; then
-  cat "$work/calibration.txt" >> "$log_file"
+  to_log < "$work/calibration.txt"
   keep_old "calibration refused or failed (a contact in the calibration logs?)"
 fi
-cat "$work/calibration.txt" >> "$log_file"
+to_log < "$work/calibration.txt"
 
 # 5. Check: events on the check part, candidate and profile in place.
 events() {  # profile observed-streams...: prints the number of events, or "none" without thresholds
@@ -186,7 +209,7 @@ new_events=$(events "$candidate" "${new_check[@]}")
 old_events=$(events "$profile" "${old_check[@]}")
 say "check part: candidate $new_events events, profile in place $old_events"
 if [[ $new_events == none ]]; then
-  cat "$work/detect.err" >> "$log_file"
+  to_log < "$work/detect.err"
   keep_old "the candidate cannot run the detector (see above)"
 fi
 ((new_events == 0)) || keep_old "the candidate raises $new_events events on collision-free logs"

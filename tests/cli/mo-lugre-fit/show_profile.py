@@ -2,9 +2,12 @@
 """Prints what a golden case checks in a profile written by mo-lugre-fit: the friction model,
 the parameter names per joint, and the provenance entries (tool, logs' count, model, method)."""
 import json
+import re
 import sys
 
-profile = json.load(open(sys.argv[1], encoding="utf-8"))
+# Profiles keep their comments (// and /* */) through updates: drop them outside strings.
+text = open(sys.argv[1], encoding="utf-8").read()
+profile = json.loads(re.sub(r'("(?:\\.|[^"\\])*")|//[^\n]*|/\*.*?\*/', lambda m: m.group(1) or "", text, flags=re.S))
 friction = profile["friction"]
 print("friction", friction["model"], friction.get("update", "-"), len(friction["joints"]), "joints")
 for j, entry in enumerate(friction["joints"], 1):

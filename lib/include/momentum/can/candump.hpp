@@ -1,6 +1,7 @@
 #pragma once
 // candump text: every format can-utils' candump prints (and python-can's variants of the log
-// format), read line by line in constant memory, and the log format written back.
+// format), read line by line in constant memory, and the log format written back. The reader
+// also reads Vector ASC logs (asc.hpp), told apart by their first line.
 //
 //   log format (candump -L / -l, python-can):  (1436509052.249713) can0 123#11223344
 //                                               (0.5) vcan0 123##1AABB R
@@ -21,6 +22,8 @@
 #include "momentum/can/frame.hpp"
 
 namespace momentum::can {
+
+struct AscState;  // asc.hpp
 
 // How to read the timestamps of the default format (log-format timestamps are always times).
 enum class TimestampMode : std::uint8_t {
@@ -162,6 +165,8 @@ class CandumpReader {
   std::size_t pending_next_ = 0;
   std::function<void()> before_read_;
   std::function<void()> on_interrupt_;
+  // Set when the first line is a Vector ASC header: the input is read as ASC (asc.hpp).
+  std::unique_ptr<AscState> asc_;
 };
 
 // Writes a frame in the log format, `(SECONDS.MICROS) IFACE ID#DATA` plus a newline, as

@@ -39,6 +39,9 @@ struct Payload {
 // below are the model's view of it and are not written back by save_profile_atomically.
 struct Profile {
   std::filesystem::path path;  // the file it was read from (empty when built in memory)
+  // The file's text as read, comments included (empty when built in memory): save_profile_as
+  // edits it so that an update changes only the members it updates.
+  std::string text;
   nlohmann::json document;     // whole document; other stages own their sections
   std::filesystem::path urdf;  // URDF file, resolved against the profile's folder
   std::string root;            // chain root link (fixed to the world)
@@ -81,11 +84,19 @@ Profile profile_from_document(nlohmann::json document, const std::filesystem::pa
 // has that name (the message lists the names it has).
 void select_payload(Profile& profile, const std::string& name);
 
-// Writes `document` (pretty-printed, 2-space indent, trailing newline) to a temporary file in
+// Writes `document` (format_profile_value's style, trailing newline) to a temporary file in
 // the destination's folder, fsyncs it, and renames it over `path`, so readers see either the
 // old or the new profile, never a torn one. Throws momentum::Error naming the file on any I/O
 // failure (the temporary file is removed).
 void save_profile_atomically(const nlohmann::json& document, const std::filesystem::path& path);
+
+// Same as save_profile_atomically for a profile's text, written as given.
+void save_profile_text_atomically(const std::string& text, const std::filesystem::path& path);
+
+// How a profile in `folder` names the URDF file `urdf` (absolute, or relative to the current
+// directory): relative to `folder` when the URDF is in it or below it (the two travel together,
+// as a robot's folder), else absolute, so that the profile keeps working when copied alone.
+std::filesystem::path urdf_reference(const std::filesystem::path& urdf, const std::filesystem::path& folder);
 
 // Appends {"tool", "version" (momentum version), "time" (UTC, ISO-8601, seconds, 'Z'),
 // "details"} to document["provenance"], creating the list when absent. Throws momentum::Error
@@ -93,10 +104,12 @@ void save_profile_atomically(const nlohmann::json& document, const std::filesyst
 void append_provenance(nlohmann::json& document, const std::string& tool,
                        const nlohmann::json& details);
 
-// Saves `document`, an edited copy of `source.document`, at `destination` with
-// save_profile_atomically. When the destination is in another folder than `source.path`, a
-// relative "urdf" is rewritten relative to the destination so the new profile names the same
-// URDF file. Throws like save_profile_atomically.
+// Saves `document`, an edited copy of `source.document`, at `destination`, atomically. The text
+// written is `source.text` edited by edit_profile_text: members that did not change keep their
+// text, comments and order (a profile built in memory is formatted whole). When the destination
+// is in another folder than `source.path`, a relative "urdf" is rewritten with urdf_reference
+// so that the new profile names the same URDF file: relative when the URDF is in the
+// destination's folder or below, else absolute. Throws like save_profile_atomically.
 void save_profile_as(nlohmann::json document, const Profile& source, const std::filesystem::path& destination);
 
 }  // namespace momentum::model

@@ -1,0 +1,132 @@
+#include "momentum/detect/events_json.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <string_view>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/stream/writer.hpp"
+
+namespace momentum::detect {
+
+namespace {
+
+// JSON has no NaN: a missing number is null.
+nlohmann::json number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+nlohmann::json optional_number(const std::optional<double>& x) {
+  return x ? number(*x) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+nlohmann::json profile_identity(const nlohmann::json& document, const std::string& path) {
+  if (path.empty()) return nullptr;
+  nlohmann::json identity = {{"name", nullptr}, {"path", nullptr}, {"calibrated", nullptr}};
+  if (const auto it = document.find("name"); it != document.end() && it->is_string()) identity["name"] = *it;
+  std::error_code ec;
+  const auto absolute = std::filesystem::absolute(path, ec);
+  identity["path"] = (ec ? std::filesystem::path(path) : absolute.lexically_normal()).string();
+  if (const auto it = document.find("provenance"); it != document.end() && it->is_array()) {
+    for (const auto& entry : *it) {
+      if (entry.is_object() && entry.value("tool", "") == "mo-calibrate" && entry.contains("time"))
+        identity["calibrated"] = entry["time"];
+    }
+  }
+  return identity;
+}
+
+nlohmann::json event_json(const Event& event, const std::string& source, const nlohmann::json& profile,
+                          const Thresholds& thresholds) {
+  nlohmann::json peaks = nlohmann::json::array();
+  for (const double p : event.peaks) peaks.push_back(number(p));
+  const bool end = event.kind == EventKind::end;
+  return {{"event", event.id},
+          {"kind", std::string(kind_name(event.kind))},
+          {"t_onset_estimate", number(event.t_onset_estimate)},
+          {"t_detect", number(event.t_detect)},
+          {"link", event.link},
+          {"joints", event.joints},
+          {"t_end", end ? number(event.t_end) : nlohmann::json(nullptr)},
+          {"ended_by", end ? nlohmann::json(std::string(end_reason_name(event.ended_by))) : nlohmann::json(nullptr)},
+          {"peaks", peaks},
+          {"source", source},
+          {"profile", profile},
+          {"signal", std::string(signal_name(thresholds.signal))},
+          {"thresholds", thresholds_to_json(thresholds)}};
+}
+
+std::string calibration_json_lines(const CalibrationResult& result, const nlohmann::json& profile) {
+  const std::string signal(signal_name(result.thresholds.signal));
+  std::string out;
+  for (std::size_t j = 0; j < result.joints.size(); ++j) {
+    const JointCalibration& c = result.joints[j];
+    const JointThreshold& t = result.thresholds.joints[j];
+    const std::pair<const char*, const MagnitudeSummary*> states[] = {
+        {"moving", &c.moving}, {"slow", &c.slow}, {"rest", &c.rest}, {"rest_abs", &c.rest_absolute}};
+    for (const auto& [state, s] : states) {
+      nlohmann::json threshold = nullptr;
+      const std::string_view name = state;
+      if (name == "moving") threshold = number(t.moving);
+      else if (name == "slow") threshold = optional_number(t.slow);
+      else if (name == "rest" && !t.rest_absolute) threshold = optional_number(t.rest);
+      else if (name == "rest_abs" && t.rest_absolute) threshold = optional_number(t.rest);
+      const bool any = s->samples > 0;
+      const nlohmann::json line = {{"type", "state"},
+                                   {"signal", signal},
+                                   {"joint", j + 1},
+                                   {"state", state},
+                                   {"samples", s->samples},
+                                   {"seconds", number(s->seconds)},
+                                   {"rms", any ? number(s->rms) : nlohmann::json(nullptr)},
+                                   {"p99", any ? number(s->p99) : nlohmann::json(nullptr)},
+                                   {"p999", any ? number(s->p999) : nlohmann::json(nullptr)},
+                                   {"max", any ? number(s->max) : nlohmann::json(nullptr)},
+                                   {"t_max", any ? number(s->t_max) : nlohmann::json(nullptr)},
+                                   {"where", any ? nlohmann::json(s->where_max) : nlohmann::json(nullptr)},
+                                   {"threshold", threshold}};
+      out += line.dump() + "\n";
+    }
+  }
+  const nlohmann::json summary = {{"type", "thresholds"},
+                                  {"signal", signal},
+                                  {"rows", result.rows},
+                                  {"streams", result.streams},
+                                  {"profile", profile},
+                                  {"thresholds", thresholds_to_json(result.thresholds)}};
+  out += summary.dump() + "\n";
+  return out;
+}
+
+JsonLinesWriter::JsonLinesWriter(const std::string& path) {
+  const bool to_stdout = path.empty() || path == "-";
+  name_ = to_stdout ? "<stdout>" : path;
+  fd_ = to_stdout ? STDOUT_FILENO : ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
+  owns_ = !to_stdout;
+}
+
+JsonLinesWriter::~JsonLinesWriter() {
+  if (owns_ && fd_ >= 0) ::close(fd_);
+}
+
+void JsonLinesWriter::write(const nlohmann::json& object) {
+  const std::string line = object.dump() + "\n";
+  std::string_view text = line;
+  while (!text.empty()) {
+    const ssize_t n = ::write(fd_, text.data(), text.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EPIPE) throw stream::BrokenPipe();
+      throw Error(name_ + ": write error: " + std::strerror(errno));
+    }
+    text.remove_prefix(static_cast<std::size_t>(n));
+  }
+}
+
+}  // namespace momentum::detect
