@@ -70,8 +70,12 @@ PlotData::PlotData(std::vector<Signal> signals, std::vector<std::optional<Thresh
 }
 
 void PlotData::add(double t, const double* const* x, const double* dq) {
+  // mu's thresholds may judge rest on r: the plotted r then serves as mu's rest residual.
+  const double* raw = nullptr;
   for (std::size_t s = 0; s < signals_.size(); ++s)
-    if (detectors_[s]) detectors_[s]->step(t, x[s], dq);
+    if (signals_[s] == Signal::r) raw = x[s];
+  for (std::size_t s = 0; s < signals_.size(); ++s)
+    if (detectors_[s]) detectors_[s]->step(t, x[s], dq, signals_[s] == Signal::mu ? raw : nullptr);
   if (!(t >= options_.from && t <= options_.to)) return;
   ++rows_;
   if (buckets_.empty() || t - buckets_.back().t0 > width_ || (width_ == 0 && t != buckets_.back().t0)) {

@@ -167,7 +167,9 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
   while (removed < cap) {
     ParetoTail below;
     if (!fit_below(removed + 1, &below)) break;
-    const double survival = pareto_survival(peaks[removed].m - below.u0, below.sigma, below.xi);
+    // Judged with a tail no lighter than exponential: a bounded fit (xi < 0) may end below
+    // peaks that recur (the same reversal every cycle), and would call each of them impossible.
+    const double survival = pareto_survival(peaks[removed].m - below.u0, below.sigma, std::max(below.xi, 0.0));
     const double any = -std::expm1(static_cast<double>(below.peaks) * std::log1p(-std::min(survival, 1.0)));
     if (!(any < options.outlier_probability)) break;
     ++removed;

@@ -103,8 +103,8 @@ struct TailFitOptions {
   // tail than xi = 0.5 (infinite variance beyond xi = 0.5) is not what residual noise does; a
   // fit outside is clamped and the scale refitted.
   double xi_min = -0.5, xi_max = 0.5;
-  // A largest peak is an outlier when, under the tail fitted to the peaks below it, the chance
-  // that any of them reaches it is under this (Bonferroni over the peaks tested).
+  // A largest peak is an outlier when, under the tail fitted to the peaks below it (taken no
+  // lighter than exponential), the chance that any of them reaches it is under this.
   double outlier_probability = 1e-3;
   // At most this many outliers are removed (the largest first), and never more than a tenth of
   // the peaks.
