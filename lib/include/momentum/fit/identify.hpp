@@ -44,7 +44,8 @@ struct IdentifyOptions {
   bool robot_bounds = true;
   // Parameters whose bounds the user gave (fit.bounds holds them): never scaled nor widened.
   std::array<bool, kParameterCount> user_bounds{};
-  // Times a joint is fitted again after a parameter ended on a bound that is not physical,
+  // Times a joint is fitted again after a parameter it needs (JointIdentification::failure
+  // says which) ended on a bound that is not physical,
   // with that bound moved by widen_factor (upper x factor, lower / factor; both asymmetries'
   // bounds x factor). >= 0; factor > 1.
   int max_widenings = 2;
