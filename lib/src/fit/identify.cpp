@@ -34,13 +34,10 @@ ParameterBounds scaled_bounds(const JointScale& scale) {
       !std::isfinite(scale.speed_scale))
     return b;
   const double torque = std::min(2.0 * scale.residual_scale, scale.effort_limit);
-  const double stretch = std::max(1.0, torque / 20.0);
-  b.upper[0] = 1e5 * stretch;
-  b.upper[1] = 500.0 * stretch;
   b.upper[2] = torque / scale.speed_scale;
   b.upper[3] = b.upper[4] = torque;
   b.lower[3] = b.lower[4] = 1e-6 * torque;
-  b.upper[5] = std::min(std::max(0.1, scale.speed_scale), scale.velocity_limit);
+  b.upper[5] = std::min(0.1, scale.velocity_limit);
   b.lower[5] = 1e-6 * b.upper[5];
   b.upper[6] = b.upper[7] = 0.3 * torque;
   b.lower[6] = b.lower[7] = -0.3 * torque;
