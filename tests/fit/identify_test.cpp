@@ -49,17 +49,17 @@ TEST(ScaledBounds, FollowTheFormulaAndTheLimits) {
   EXPECT_DOUBLE_EQ(b.upper[3], 60);
   EXPECT_DOUBLE_EQ(b.upper[4], 60);
   EXPECT_DOUBLE_EQ(b.upper[2], 120);          // 60 Nm / 0.5 rad/s
-  EXPECT_DOUBLE_EQ(b.upper[5], 0.5);
-  EXPECT_DOUBLE_EQ(b.upper[0], 1e5 * 3);      // stretched by 60 / 20
-  EXPECT_DOUBLE_EQ(b.upper[1], 500.0 * 3);
+  EXPECT_DOUBLE_EQ(b.upper[5], 0.1);          // w_s and the bristles: the paper's box
+  EXPECT_DOUBLE_EQ(b.upper[0], 1e5);
+  EXPECT_DOUBLE_EQ(b.upper[1], 500.0);
   EXPECT_DOUBLE_EQ(b.lower[0], 6e4);
   EXPECT_DOUBLE_EQ(b.upper[6], 18);
   EXPECT_DOUBLE_EQ(b.lower[6], -18);
   s.effort_limit = 40;                        // the drive cannot do more
-  s.velocity_limit = 0.2;
+  s.velocity_limit = 0.05;
   const auto limited = fit::scaled_bounds(s);
   EXPECT_DOUBLE_EQ(limited.upper[3], 40);
-  EXPECT_DOUBLE_EQ(limited.upper[5], 0.2);
+  EXPECT_DOUBLE_EQ(limited.upper[5], 0.05);
   // No scale in the data: the paper's box.
   const auto paper = fit::scaled_bounds(fit::JointScale{});
   EXPECT_EQ(paper.upper, fit::paper_bounds().upper);

@@ -34,13 +34,10 @@ ParameterBounds scaled_bounds(const JointScale& scale) {
       !std::isfinite(scale.speed_scale))
     return b;
   const double torque = std::min(2.0 * scale.residual_scale, scale.effort_limit);
-  const double stretch = std::max(1.0, torque / 20.0);
-  b.upper[0] = 1e5 * stretch;
-  b.upper[1] = 500.0 * stretch;
   b.upper[2] = torque / scale.speed_scale;
   b.upper[3] = b.upper[4] = torque;
   b.lower[3] = b.lower[4] = 1e-6 * torque;
-  b.upper[5] = std::min(std::max(0.1, scale.speed_scale), scale.velocity_limit);
+  b.upper[5] = std::min(0.1, scale.velocity_limit);
   b.lower[5] = 1e-6 * b.upper[5];
   b.upper[6] = b.upper[7] = 0.3 * torque;
   b.lower[6] = b.lower[7] = -0.3 * torque;
@@ -73,11 +70,15 @@ std::string number(double v) {
   return buffer;
 }
 
-// Parameters of the fit that end on a bound that is not physical: (index, side).
+// Parameters of the fit that end on a bound that is not physical and that the model needs
+// determined: (index, side). The bristles' sigma0 and sigma1 only when the data determine them:
+// a wider box for a parameter the data do not see lets it wander (sigma1 in the thousands) and
+// drag the others with it.
 std::vector<std::pair<int, int>> on_bounds(const ModelFit& m) {
   std::vector<std::pair<int, int>> out;
   for (int i : m.free) {
     const auto& e = m.estimates[static_cast<std::size_t>(i)];
+    if (i <= 1 && !e.identifiable) continue;
     if (e.at_bound != 0 && !physical_bound(i, e.at_bound)) out.emplace_back(i, e.at_bound);
   }
   return out;
@@ -152,8 +153,6 @@ std::vector<JointIdentification> identify_friction(const std::vector<JointSeries
       }
       // What is left on a bound: a failure when the model needs the parameter determined.
       for (const auto& [p, side] : hits) {
-        const auto& e = r.fit.model.estimates[static_cast<std::size_t>(p)];
-        if (p <= 1 && !e.identifiable) continue;  // bristles the data do not determine
         const auto u = static_cast<std::size_t>(p);
         const double bound = side > 0 ? r.bounds.upper[u] : r.bounds.lower[u];
         if (!r.failure.empty()) r.failure += "; ";

@@ -26,11 +26,11 @@ JointScale measure_scale(const JointSeries& data, double effort_limit, double ve
 // The default box for a joint. The friction the observer sees cannot be much larger than the
 // residual it leaves (the filter's gain at low frequency is 1), so with T = 2 x residual_scale
 // (at most the effort limit): tau_c, tau_s in (0, T]; sigma2 in [0, T / speed_scale] (viscous
-// friction alone at the median speed at most T); w_s in (0, max(0.1, speed_scale)] (at most the
-// velocity limit); delta_c, delta_s in [-0.3 T, 0.3 T]; the bristles' sigma0 in
-// [6e4, 1e5 f] and sigma1 in [0, 500 f] with f = max(1, T / 20) (the paper's box, made for
-// torques up to about 20 Nm, stretched with the torque). The paper's box when the data give no
-// scale (residual_scale or speed_scale 0).
+// friction alone at the median speed at most T); delta_c, delta_s in [-0.3 T, 0.3 T]; w_s and
+// the bristles' sigma0, sigma1 in the paper's box (w_s at most the velocity limit): a larger box
+// for them made the search end in wrong basins on the paper arm at 1 kHz, and the widening
+// (identify_friction) moves their bounds when the data determine them. The paper's box when the
+// data give no scale (residual_scale or speed_scale 0).
 ParameterBounds scaled_bounds(const JointScale& scale);
 
 // True when a bound is a physical limit the search may not pass (sigma1, sigma2 >= 0; tau_c,
@@ -44,7 +44,8 @@ struct IdentifyOptions {
   bool robot_bounds = true;
   // Parameters whose bounds the user gave (fit.bounds holds them): never scaled nor widened.
   std::array<bool, kParameterCount> user_bounds{};
-  // Times a joint is fitted again after a parameter ended on a bound that is not physical,
+  // Times a joint is fitted again after a parameter it needs (JointIdentification::failure
+  // says which) ended on a bound that is not physical,
   // with that bound moved by widen_factor (upper x factor, lower / factor; both asymmetries'
   // bounds x factor). >= 0; factor > 1.
   int max_widenings = 2;
