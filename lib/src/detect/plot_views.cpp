@@ -117,7 +117,8 @@ void ViewData::add(double t, const double* x, const double* dq) {
       for (std::size_t j = 0; j < joints_; ++j) {
         const double a = std::fabs(x[j]), v = std::fabs(dq[j]);
         if (!std::isfinite(a) || !std::isfinite(v)) continue;
-        const auto bin = std::min(static_cast<std::size_t>(v / kSpeedBin), kSpeedBins - 1);
+        // Clamped before the conversion: a speed past the last bin (or absurd) goes into it.
+        const auto bin = static_cast<std::size_t>(std::min(v / kSpeedBin, static_cast<double>(kSpeedBins - 1)));
         if (!(peak_[j][bin] >= a)) peak_[j][bin] = a;
         const Detector::Bounds& b = detector_->bounds(j);
         // The half-width of the band: the threshold the residual is held to at this speed.
