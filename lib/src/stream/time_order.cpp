@@ -198,8 +198,11 @@ void TimeOrder::resolve(bool at_end) {
       // The oldest held row lies between the last kept row and the newest one: a step of the
       // same time line (after lost samples, or a change of rate); keep it, and decide the
       // others against it. Otherwise it was wild.
-      if (t1 > last_t_ && t1 < t) keep(std::move(held_[0]));
-      else drop_held(0, time(held_[1]));
+      // When the next held row lies between the last kept row and the oldest one, the oldest
+      // was written early (before it): drop the oldest instead.
+      const double t2 = time(held_[1]);
+      if (t1 > last_t_ && t1 < t && !(t2 > last_t_ && t2 < t1)) keep(std::move(held_[0]));
+      else drop_held(0, t2);
     } else if (t1 > last_t_) {
       keep(std::move(held_[0]));  // end of input: nothing contradicts it
     } else {
