@@ -1,6 +1,7 @@
 // mo-calibrate: per-joint collision thresholds from collision-free motion, into the profile.
 #include <cmath>
 #include <cstdio>
+#include <iostream>
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
@@ -12,6 +13,9 @@
 
 using namespace momentum;
 
+// Fewer good rows than this cannot show a joint's usual band (a second at 100 Hz): refused.
+constexpr std::uint64_t kMinimumRows = 100;
+
 int main(int argc, char** argv) {
   cli::Tool tool("mo-calibrate", "Collision thresholds per joint from collision-free motion, into the profile.");
   tool.app().footer("\nExample:\n  mo-observe -p arm.json day.bin | mo-calibrate -p arm.json\n\nMore: man mo-calibrate");
@@ -19,7 +23,7 @@ int main(int argc, char** argv) {
   tool.add_profile(/*required=*/false);
   std::string output, signals_option, rule = "rate";
   double margin = 0, max_rise = 0;
-  bool envelope = false, no_rest = false, reject_contact = false, dry_run = false, strict = false;
+  bool envelope = false, no_rest = false, reject_contact = false, dry_run = false;
   detect::CalibrationOptions options;
   auto& app = tool.app();
   app.add_option("-o,--output", output, "write the updated profile to FILE instead of replacing -p")->type_name("FILE");
@@ -61,7 +65,7 @@ int main(int argc, char** argv) {
       ->type_name("RATIO");
   app.add_flag("--reject-contact", reject_contact, "fail, writing nothing, when a max looks like a contact");
   app.add_flag("-n,--dry-run", dry_run, "print the report, do not write the profile");
-  app.add_flag("--strict", strict, "stop at the first bad row instead of skipping it");
+  tool.add_strict();
   std::string format = "text";
   app.add_option("--format", format, "report as text (default) or jsonl: one JSON object per line")
       ->check(CLI::IsMember({"text", "jsonl"}));
@@ -77,6 +81,9 @@ int main(int argc, char** argv) {
     if (!options.IsValid(&why)) throw cli::UsageError(why);
     if (!output.empty() && tool.profile().empty()) throw cli::UsageError("-o needs a profile (-p) to update");
     std::optional<model::Profile> profile;
+    // An in-place update holds the profile's lock from this read to the write.
+    std::unique_ptr<core::FileLock> lock;
+    if (!tool.profile().empty() && output.empty() && !dry_run) lock = cli::lock_for_update(tool.profile());
     if (!tool.profile().empty()) profile = model::load_profile(tool.profile());
 
     std::vector<std::string> inputs = tool.inputs();
@@ -89,13 +96,10 @@ int main(int argc, char** argv) {
     }
     std::vector<detect::Calibrator> calibrators;
     std::size_t joints = 0;
-    std::uint64_t skipped = 0;
     bool raw_at_rest = false;
     nlohmann::json logs = nlohmann::json::array();
     for (const auto& path : inputs) {
-      stream::ReaderOptions reader_options;
-      reader_options.strict = strict;
-      auto in = tool.open_input(path, reader_options);
+      auto in = tool.open_input(path);
       logs.push_back(in->name());
       if (calibrators.empty()) {
         if (signals.empty()) {
@@ -129,6 +133,11 @@ int main(int argc, char** argv) {
       cli::Progress progress(tool.show_progress());
       auto where = [&] { return in->where(); };
       while (const double* row = in->next()) {
+        if (in->time_mark() == stream::TimeMark::clock_step) {
+          // The time line starts again: calibrate what follows as a stream of its own.
+          warn(in->where() + ": the clock stepped back: the rows from here count as a new log");
+          for (auto& c : calibrators) c.begin_stream(in->where(), !idq.empty());
+        }
         for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
         for (std::size_t j = 0; j < ir.size(); ++j) xr[j] = row[ir[j]];
         for (std::size_t s = 0; s < calibrators.size(); ++s) {
@@ -138,12 +147,14 @@ int main(int argc, char** argv) {
         }
         if ((in->rows_read() & 0xffff) == 0) progress.update(in->name() + ": " + std::to_string(in->rows_read()) + " rows");
       }
-      skipped += in->rows_skipped();
     }
-    if (skipped) warn(std::to_string(skipped) + " bad row" + (skipped == 1 ? "" : "s") + " skipped");
 
     std::vector<detect::CalibrationResult> results;
     for (const auto& c : calibrators) results.push_back(c.result());
+    if (results.front().rows < kMinimumRows)
+      throw Error(std::to_string(results.front().rows) + " good row" + (results.front().rows == 1 ? "" : "s") +
+                  " of residuals: a calibration needs at least " + std::to_string(kMinimumRows) +
+                  "; nothing written");
     bool contact = false;
     std::vector<std::string> rises;
     const nlohmann::json identity =
@@ -164,7 +175,8 @@ int main(int argc, char** argv) {
         auto old = detect::thresholds_from_profile(profile->document, r.thresholds.signal, tool.profile());
         report += detect::format_threshold_changes(old ? &*old : nullptr, r.thresholds);
       }
-      std::fwrite(report.data(), 1, report.size(), stdout);
+      // With -o - the profile goes to standard output, so the report goes to standard error.
+      std::fwrite(report.data(), 1, report.size(), output == "-" ? stderr : stdout);
       for (const auto& w : r.warnings) warn(w);
       contact = contact || r.any_contact();
     }
@@ -191,6 +203,10 @@ int main(int argc, char** argv) {
                                           : nlohmann::json{{"percent", options.margin_percent}};
     model::append_provenance(document, "mo-calibrate", details);
     const std::string destination = output.empty() ? tool.profile() : output;
+    if (destination == "-") {
+      std::cout << document.dump(2) << "\n";
+      return cli::kSuccess;
+    }
     model::save_profile_as(document, *profile, destination);
     return cli::kSuccess;
   });

@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
   std::string timestamps = "auto", bus;
   std::optional<double> period;
   int hold = 0;
-  bool long_format = false, stats = false, line_buffered = false, strict = false;
+  bool long_format = false, stats = false, line_buffered = false;
   auto& app = tool.app();
   app.add_option("--dbc", dbc_path, "DBC file that decodes the frames")->type_name("FILE")->required();
   app.add_option("-i,--interface", interface, "read live from this SocketCAN interface (e.g. can0)")->type_name("IFACE");
@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
   app.add_option("-o,--output", output, "output file (default: stdout)")->type_name("FILE");
   app.add_option("--output-format", output_format, "csv or bin (default csv)")->type_name("FORMAT");
   app.add_flag("--line-buffered", line_buffered, "flush every row (automatic for live input)");
-  app.add_flag("--strict", strict, "stop at the first bad line instead of skipping it");
+  tool.add_strict();
 
   return tool.run(argc, argv, [&] {
     const int boundaries = (!sync_text.empty()) + (!cycle_message.empty()) + (period.has_value());
@@ -195,7 +195,7 @@ int main(int argc, char** argv) {
     install(SIGTERM, on_stop);
 
     can::CandumpOptions text_options;
-    text_options.strict = strict;
+    text_options.strict = tool.strict();
     text_options.timestamps = mode;
     text_options.interface = bus;
     auto open_next_text = [&]() -> bool {
@@ -222,6 +222,7 @@ int main(int argc, char** argv) {
     }
 
     bool warned_untimed = false;
+    std::uint64_t rows_written = 0;
     // The next frame from whichever source; false at the end or on SIGINT/SIGTERM.
     auto next_frame = [&](can::Frame& frame) -> bool {
       try {
@@ -296,9 +297,9 @@ int main(int argc, char** argv) {
           warned_untimed = true;
           warn((text ? text->where() : interface) + ": capture without timestamps (candump without -t): t is nan");
         }
-        if (cycles->add(frame)) writer->row(cycles->row());
+        if (cycles->add(frame)) writer->row(cycles->row()), ++rows_written;
       }
-      if (cycles->finish()) writer->row(cycles->row());
+      if (cycles->finish()) writer->row(cycles->row()), ++rows_written;
       writer->close();
     }
 
@@ -310,10 +311,9 @@ int main(int argc, char** argv) {
       socket.reset();
     }
     if (stats) print_stats();
-    if (totals.bad_lines > 0) {
-      warn(std::to_string(totals.bad_lines) + " bad line" + (totals.bad_lines == 1 ? "" : "s") + " skipped");
-      return cli::kFailure;
-    }
+    if (!long_format && rows_written == 0)
+      throw Error("no rows: " + std::to_string(totals.frames) + " frame" + (totals.frames == 1 ? "" : "s") +
+                  " read but no complete cycle (is the cycle's SYNC frame in the capture?)");
     return cli::kSuccess;
   });
 }

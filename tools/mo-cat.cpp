@@ -1,7 +1,5 @@
 // mo-cat: convert sample streams between CSV and binary, select, rename and scale columns,
 // mend timing faults, or describe a log (--stats).
-#include <algorithm>
-#include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -10,43 +8,15 @@
 #include <nlohmann/json.hpp>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/stream/cat.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
-#include "momentum/stream/repair.hpp"
 #include "momentum/stream/stats.hpp"
 
 using namespace momentum;
 
 namespace {
 
-void print_stats(const stream::StreamStats& stats, std::FILE* out) {
-  auto s = stats.summary();
-  std::fprintf(out, "rows        %" PRIu64 "\n", s.rows);
-  std::fprintf(out, "columns     %zu\n", s.columns);
-  if (s.has_time) {
-    std::fprintf(out, "time        %.9g .. %.9g s (span %.9g s)\n", s.t_first, s.t_last, s.t_last - s.t_first);
-    std::fprintf(out, "dt          min %.6g  median %.6g  max %.6g s\n", s.dt_min, s.dt_median, s.dt_max);
-    auto anomaly = [&](const char* label, const stream::StreamStats::Anomaly& a) {
-      std::fprintf(out, "%-11s %" PRIu64, label, a.count);
-      for (std::size_t i = 0; i < a.first.size(); ++i) std::fprintf(out, "%s%s", i ? ", " : "  at ", a.first[i].c_str());
-      if (a.count > a.first.size()) std::fputs(", ...", out);
-      std::fputc('\n', out);
-    };
-    anomaly("gaps", s.gaps);
-    std::fprintf(out, "irregular   %" PRIu64 "  (steps more than 10%% off the median, not gaps)\n", s.irregular);
-    anomaly("backwards", s.backwards);
-    anomaly("same-time", s.repeated_time);
-    anomaly("duplicates", s.duplicates);
-    anomaly("frozen", s.frozen);
-  } else {
-    std::fputs("time        no column 't'\n", out);
-  }
-  std::fputs("nan        ", out);
-  bool any = false;
-  for (std::size_t i = 0; i < s.nan_per_column.size(); ++i)
-    if (s.nan_per_column[i]) std::fprintf(out, " %s=%" PRIu64, stats.columns()[i].c_str(), s.nan_per_column[i]), any = true;
-  std::fputs(any ? "\n" : " none\n", out);
-}
 
 // --stats as one JSON object (mo-cat(1), JSON LINES): every number of the text form, the
 // anomalies with their first places, NaN counts per column; time fields null without a 't'.
@@ -79,19 +49,6 @@ void print_stats_json(const stream::StreamStats& stats, const std::vector<std::s
   std::fwrite(text.data(), 1, text.size(), out);
 }
 
-// "--scale q1-6=0.0174532925199433": factor per output column (1 where none is given).
-std::vector<double> parse_scales(const std::vector<std::string>& specs, const std::vector<std::string>& columns) {
-  std::vector<double> factor(columns.size(), 1.0);
-  for (const auto& spec : specs) {
-    auto eq = spec.rfind('=');
-    if (eq == std::string::npos) throw cli::UsageError("--scale: expected LIST=FACTOR, got '" + spec + "'");
-    auto value = stream::parse_double(spec.substr(eq + 1));
-    if (!value) throw cli::UsageError("--scale: '" + spec.substr(eq + 1) + "' is not a number");
-    for (auto index : stream::column_indices(columns, stream::expand_column_list(spec.substr(0, eq)), "--scale"))
-      factor[index] *= *value;
-  }
-  return factor;
-}
 
 // True for a whole CSV field that is a number ("0.001", "-3", "1e-3", "nan"), as a header-less
 // row's fields are and a column name never is.
@@ -130,24 +87,26 @@ int main(int argc, char** argv) {
   return tool.run(argc, argv, [&] {
     std::vector<std::string> inputs = tool.inputs();
     if (inputs.empty()) inputs.push_back("-");
+    if (head && *head == 0) tool.set_no_rows_policy(false);  // the header alone was asked for
     stream::ReaderOptions read_options;
     if (!names.empty()) read_options.names = stream::expand_column_list(names);
+    // Rows as written, unless asked to mend them by the suite's time policy (mo-log(5)).
+    read_options.time_order = repair;
 
     std::unique_ptr<stream::Writer> out;
     std::unique_ptr<stream::StreamStats> summary;
-    std::unique_ptr<stream::TimeOrderRepair> mender;
     std::vector<std::string> first_columns;
     std::vector<std::size_t> pick;
     std::vector<double> factor, row_out;
     std::optional<std::size_t> t_out;
     std::optional<double> t_origin;
-    std::uint64_t rows = 0, skipped = 0;
+    std::uint64_t rows = 0;
+    stream::TimeOrder::Summary mended;
     bool identity = false;
-    std::string where;  // location of the row being mended, for --stats after --repair
     stream::Reader* current = nullptr;
 
     auto deliver = [&](const double* row) {
-      if (summary) summary->add(row, mender ? where : current->where());
+      if (summary) summary->add(row, current->where());
       else out->row(row);
     };
 
@@ -163,7 +122,11 @@ int main(int argc, char** argv) {
         first_columns = in->columns();
         std::vector<std::string> selected = columns.empty() ? in->columns() : stream::expand_column_list(columns);
         pick = stream::column_indices(in->columns(), selected, in->name());
-        factor = parse_scales(scales, selected);
+        try {
+          factor = stream::parse_scales(scales, selected);
+        } catch (const Error& e) {
+          throw cli::UsageError(e.what());
+        }
         row_out.resize(pick.size());
         identity = !zero_time && !repair && pick.size() == in->columns().size();
         for (std::size_t i = 0; i < pick.size(); ++i) identity = identity && pick[i] == i && factor[i] == 1.0;
@@ -176,11 +139,6 @@ int main(int argc, char** argv) {
         } else {
           out = tool.open_output(*in);
           out->header(selected);
-        }
-        if (repair) {
-          mender = std::make_unique<stream::TimeOrderRepair>(
-              pick.size(), *t_out, deliver,
-              [](const std::string& at, const std::string& reason) { warn(at + ": dropped: " + reason); });
         }
       } else if (in->columns() != first_columns) {
         throw Error(in->name() + ": columns differ from " + inputs.front() + "'s; cannot concatenate");
@@ -204,30 +162,25 @@ int main(int argc, char** argv) {
           row_out[*t_out] -= *t_origin;
         }
         for (std::size_t i = 0; i < pick.size(); ++i) row_out[i] *= factor[i];
-        if (mender) {
-          where = in->where();
-          mender->push(row_out.data(), where);
-        } else {
-          deliver(row_out.data());
-        }
+        deliver(row_out.data());
         ++rows;
       }
-      skipped += in->rows_skipped();
+      if (const stream::TimeOrder::Summary* time = in->time_summary()) {
+        mended.kept += time->kept;
+        mended.duplicates += time->duplicates;
+        mended.not_finite += time->not_finite;
+        mended.out_of_order += time->out_of_order;
+        mended.clock_steps += time->clock_steps;
+      }
     }
-    if (mender) {
-      mender->finish();
-      const auto& m = mender->summary();
-      if (m.duplicates + m.out_of_order)
-        warn("--repair kept " + std::to_string(m.kept) + " rows, dropped " + std::to_string(m.duplicates) +
-             " duplicate and " + std::to_string(m.out_of_order) + " out of time order");
-    }
+    if (repair && (mended.dropped() || mended.clock_steps))
+      warn("--repair kept " + std::to_string(mended.kept) + " rows (" + std::to_string(mended.clock_steps) +
+           " clock steps), dropped " + std::to_string(mended.duplicates) + " duplicate, " +
+           std::to_string(mended.not_finite) + " with a time that is not finite and " +
+           std::to_string(mended.out_of_order) + " out of time order");
     if (out) out->close();
     if (summary && stats_format == "jsonl") print_stats_json(*summary, inputs, stdout);
-    else if (summary) print_stats(*summary, stdout);
-    if (skipped) {
-      warn(std::to_string(skipped) + " bad row" + (skipped == 1 ? "" : "s") + " skipped");
-      return cli::kFailure;
-    }
+    else if (summary) std::fputs(stream::format_stats(*summary).c_str(), stdout);
     return cli::kSuccess;
   });
 }

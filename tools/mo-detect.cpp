@@ -22,12 +22,14 @@
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/core/number.hpp"
 
 using namespace momentum;
 
 namespace {
 
-constexpr int kNoCollision = 0, kCollision = 1, kError = 2;
+// 3: the input held no row at all, so nothing was checked (a warning says so).
+constexpr int kNoCollision = 0, kCollision = 1, kError = 2, kNoRows = 3;
 
 detect::Thresholds choose_thresholds(const cli::Tool& tool, detect::Signal signal, const std::string& list,
                                      std::size_t joints) {
@@ -83,6 +85,9 @@ int main(int argc, char** argv) {
   app.add_option("--format", format, "events as csv (default) or jsonl: one JSON object per row")
       ->check(CLI::IsMember({"csv", "jsonl"}));
 
+  // Skipped rows do not change the status (1 means a collision here); they are summed up.
+  tool.set_skipped_rows_status(std::nullopt);
+  tool.set_no_rows_policy(true, kNoRows, /*warning=*/true);
   std::uint64_t collisions = 0;
   const int status = tool.run(argc, argv, [&]() -> int {
     try {
@@ -196,12 +201,21 @@ int main(int argc, char** argv) {
         try {
           row = in->next();
         } catch (const detect::Interrupted&) {
+          // Read nothing more, but detect on the rows already read (the time policy may hold
+          // a row or two at the start or around a fault).
           interrupted = true;
-          break;
+          in->stop();
+          continue;
         }
         if (!row) break;
         const auto start = clock::now();
         const double t = row[it];
+        if (in->time_mark() == stream::TimeMark::clock_step) {
+          // The stream's time policy kept this row as the start of a new time line.
+          warn(in->where() + ": the clock stepped back from t=" + core::exact(t_prev) + " to t=" +
+               core::exact(t) + ": detection goes on");
+          t_prev = -INFINITY;
+        }
         if (!(t >= t_prev)) {
           in->reject_row(std::isnan(t) ? "time is nan" : "time goes backwards");
           continue;
@@ -224,9 +238,9 @@ int main(int argc, char** argv) {
         }
         if (runner && runner->running()) runner->reap();
         latency.add(std::chrono::duration<double, std::micro>(clock::now() - start).count());
-        if (watch.signal() != 0) {
+        if (watch.signal() != 0) {  // stop reading; rows already read are still detected on
           interrupted = true;
-          break;
+          in->stop();
         }
       }
       if (const detect::Event* e = detector.finish(interrupted ? detect::EndReason::signal : detect::EndReason::eof)) {

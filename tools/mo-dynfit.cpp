@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   tool.app().footer("\nExample:\n  mo-dynfit -p arm.json --torque-held --update log.csv\n\nMore: man mo-dynfit");
   tool.add_inputs("streams of collision-free motion (t, q<j>, dq<j>, tau_m<j> or i<j>); - or none: stdin");
   tool.add_profile(true);
+  tool.add_strict();
   tool.add_payload();
   tool.add_seed();
   auto& app = tool.app();
@@ -61,6 +62,8 @@ int main(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     if (update && !output.empty()) throw cli::UsageError("--update and -o are exclusive");
     const std::string profile_name = tool.profile();
+    // An in-place update holds the profile's lock from this read to the write.
+    const auto lock = update ? cli::lock_for_update(profile_name) : nullptr;
     model::Profile profile = model::load_profile(profile_name);
     model::select_payload(profile, tool.payload());
     // Identify against the URDF as it is; the profile's current corrections are compared.
@@ -84,7 +87,6 @@ int main(int argc, char** argv) {
     for (const auto& path : inputs) {
       auto in = tool.open_input(path);
       dynfit::add_log(*in, nominal, identifier);
-      if (in->rows_skipped()) warn(in->name() + ": " + std::to_string(in->rows_skipped()) + " bad rows skipped");
     }
     dynfit::Report report;
     report.inputs = inputs;

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/text.hpp"
 #include "momentum/fit/data.hpp"
 #include "momentum/fit/friction_fit.hpp"
 #include "momentum/fit/identify.hpp"
@@ -21,6 +22,10 @@
 using namespace momentum;
 
 namespace {
+
+// A joint needs this many counted samples before its fit is written into a profile: six
+// parameters from a handful of samples fit noise (one sample fits anything).
+constexpr std::size_t kMinimumSamples = 100;
 
 double parse_double(const std::string& text, const std::string& option) {
   std::size_t used = 0;
@@ -38,7 +43,7 @@ double parse_double(const std::string& text, const std::string& option) {
 // "sigma0=6e4:1e5,w_s=0:0.2" -> bounds; "sigma0=1e5" -> fixed values.
 void parse_assignments(const std::string& text, const std::string& option,
                        const std::function<void(int, const std::string&)>& apply) {
-  for (const auto& item : cli::split_list(text)) {
+  for (const auto& item : core::split(text)) {
     const auto eq = item.find('=');
     const int index = eq == std::string::npos ? -1 : fit::parameter_index(item.substr(0, eq));
     if (index < 0)
@@ -54,6 +59,7 @@ int main(int argc, char** argv) {
   tool.app().footer("\nExample:\n  mo-lugre-fit -p arm.json -o fitted.json observed.csv\n\nMore: man mo-lugre-fit");
   tool.add_inputs("observed streams (t, dq<j>, r<j>) of collision-free motion; - or none: stdin");
   tool.add_profile(true);
+  tool.add_strict();
   tool.add_seed();
   auto& app = tool.app();
   std::string output, report_path, model_name = "lugre", joints_text, window_text, method_name = "ga";
@@ -147,7 +153,7 @@ int main(int argc, char** argv) {
     });
 
     fit::SelectOptions select;
-    for (const auto& j : cli::split_list(joints_text)) {
+    for (const auto& j : core::split(joints_text)) {
       const double v = parse_double(j, "--joints");
       if (v < 1 || v != std::floor(v)) throw cli::UsageError("--joints: '" + j + "' is not a joint number");
       select.joints.push_back(static_cast<int>(v));
@@ -162,6 +168,8 @@ int main(int argc, char** argv) {
 
     // The profile: robot (joint count), observer (the filter), current friction (options, and
     // the error to beat).
+    // An in-place update holds the profile's lock from this read to the write.
+    const auto lock = update ? cli::lock_for_update(tool.profile()) : nullptr;
     const model::Profile profile = model::load_profile(tool.profile());
     const model::Model robot = model::build_model(profile);
     const std::string profile_name = tool.profile();
@@ -210,7 +218,6 @@ int main(int argc, char** argv) {
           throw Error(in->name() + ": has other joints than " + inputs.front());
         for (std::size_t i = 0; i < more.size(); ++i) fit::append_series(series[i], more[i]);
       }
-      if (in->rows_skipped()) warn(in->name() + ": " + std::to_string(in->rows_skipped()) + " bad rows skipped");
     }
     std::vector<observer::Gains> gains;
     for (auto& s : series) {
@@ -323,10 +330,19 @@ int main(int argc, char** argv) {
       report.outcome = "profile not written (use --update or -o)";
     } else {
       const auto worse = fit::worse_than_current(report);
+      std::string thin;  // joints with too few samples for a fit worth writing
+      for (const auto& s : series)
+        if (s.scored_count() < kMinimumSamples) thin += (thin.empty() ? "" : ",") + std::to_string(s.joint);
       std::string failed;
       for (const auto& j : report.joints)
         if (!j.failure.empty()) failed += (failed.empty() ? "joint " : "; joint ") + std::to_string(j.fit.joint) + ": " + j.failure;
-      if (!failed.empty() && !force) {
+      if (!thin.empty()) {
+        failure = "joint" + std::string(thin.find(',') != std::string::npos ? "s " : " ") + thin +
+                  ": fewer than " + std::to_string(kMinimumSamples) +
+                  " samples counted; a fit from so few is not written (profile not written)";
+        report.outcome = "refused: " + failure;
+        status = cli::kFailure;
+      } else if (!failed.empty() && !force) {
         failure = failed + ": the fit failed; profile not written (--force to write anyway)";
         report.outcome = "refused: " + failure;
         status = cli::kFailure;

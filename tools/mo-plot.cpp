@@ -18,7 +18,7 @@ int main(int argc, char** argv) {
   tool.add_inputs("input stream with r<j> and/or mu<j> (- or none: stdin)");
   tool.add_profile(/*required=*/false);
   std::string output, format, events_path, truth_path, signals_option;
-  bool script_only = false, strict = false;
+  bool script_only = false;
   detect::PlotOptions options;
   auto& app = tool.app();
   app.add_option("-o,--output", output, "image file to write (.png or .svg)")->type_name("FILE")->required();
@@ -39,7 +39,7 @@ int main(int argc, char** argv) {
   app.add_option("--view", view_name, "time (default), events, mu-dq or histogram")
       ->check(CLI::IsMember({"time", "events", "mu-dq", "histogram"}));
   app.add_flag("--script", script_only, "print the gnuplot script (which draws -o) instead of running it");
-  app.add_flag("--strict", strict, "stop at the first bad row instead of skipping it");
+  tool.add_strict();
 
   return tool.run(argc, argv, [&] {
     if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
@@ -51,9 +51,7 @@ int main(int argc, char** argv) {
     std::string why;
     if (!options.IsValid(&why)) throw cli::UsageError(why);
 
-    stream::ReaderOptions reader_options;
-    reader_options.strict = strict;
-    auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front(), reader_options);
+    auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front());
     const std::size_t it = in->require("t");
     std::vector<detect::Signal> signals;
     try {
@@ -124,13 +122,21 @@ int main(int argc, char** argv) {
     std::vector<std::vector<double>> x(signals.size(), std::vector<double>(n));
     std::vector<const double*> rows(signals.size());
     std::vector<double> dq(n);
-    double t_prev = -INFINITY;
+    double t_prev = -INFINITY, shift = 0, step = 0;
     while (const double* row = in->next()) {
-      const double t = row[it];
+      if (in->time_mark() == stream::TimeMark::clock_step) {
+        // The stream's time policy kept this row as the start of a new time line: the time
+        // axis goes on from the last row instead of drawing over earlier rows.
+        shift = t_prev + step - row[it];
+        warn(in->where() + ": the clock stepped back; the plot shifts the rows from here by " +
+             short_number(shift) + " s");
+      }
+      const double t = row[it] + shift;
       if (!(t >= t_prev)) {
         in->reject_row("time goes backwards");
         continue;
       }
+      if (std::isfinite(t_prev)) step = t - t_prev;
       t_prev = t;
       for (std::size_t s = 0; s < signals.size(); ++s) {
         for (std::size_t j = 0; j < n; ++j) x[s][j] = row[columns[s][j]];

@@ -3,11 +3,19 @@
 
 A case is a folder holding `cmd` (one bash command line), and optionally `stdin`, `expout`,
 `experr`, `status` (expected exit status, default 0; the paths of tests/data and of the source
-tree are written $DATA and $SRC in the expected files) and `tolerance` (relative tolerance for
-numbers, default 1e-9). The command runs with cwd = the case folder, the built tools first on
-PATH, and DATA / SRC naming tests/data and the source tree. Outputs are compared token by
-token: numbers within the tolerance, everything else exactly. Run with --update to write the
-expected files from the current output (then review them by hand).
+tree are written $DATA and $SRC in the expected files) and `tolerance`. The command runs with
+cwd = the case folder, the built tools first on PATH, and DATA / SRC naming tests/data and the
+source tree. Outputs are compared token by token: numbers within their tolerance, everything
+else exactly. Run with --update to write the expected files from the current output (then
+review them by hand).
+
+Tolerance per kind of number. A CSV header line (names separated by commas) names the fields
+of the rows below it that have as many fields. Times (a column named t, t_*, *_t, onset, end,
+time or *_time) are compared absolutely: |a - b| <= time tolerance (default 1e-9 s), because a
+relative tolerance on Unix-epoch times (1.7e9 s) would let 0.9 s through. Every other number
+is compared relatively: |a - b| <= value tolerance * max(|a|, |b|) (default 1e-9). The file
+`tolerance` holds a bare number (the value tolerance, as before) and/or lines `time X` and
+`value X`.
 """
 import argparse
 import math
@@ -24,7 +32,32 @@ def tokens(text):
     return TOKEN.findall(text)
 
 
-def same_number(a, b, tol):
+TIME_COLUMN = re.compile(r"^(t|t_\w+|\w+_t|onset|end|time|\w+_time)$")
+HEADER_NAME = re.compile(r"^[A-Za-z_][\w.\[\]-]*$")
+
+
+class Tolerance:
+    def __init__(self, value=1e-9, time=1e-9):
+        self.value = value
+        self.time = time
+
+    @staticmethod
+    def parse(text):
+        tol = Tolerance()
+        for line in text.splitlines():
+            parts = line.split()
+            if not parts or parts[0].startswith("#"):
+                continue
+            if len(parts) == 1:
+                tol.value = float(parts[0])
+            elif parts[0] in ("time", "value") and len(parts) == 2:
+                setattr(tol, parts[0], float(parts[1]))
+            else:
+                raise ValueError(f"tolerance: cannot read '{line}'")
+        return tol
+
+
+def same_number(a, b, tol, absolute=False):
     try:
         x, y = float(a), float(b)
     except ValueError:
@@ -33,7 +66,34 @@ def same_number(a, b, tol):
         return math.isnan(x) and math.isnan(y)
     if math.isinf(x) or math.isinf(y):
         return x == y
+    if absolute:
+        return abs(x - y) <= tol
     return abs(x - y) <= tol * max(abs(x), abs(y)) or abs(x - y) <= 1e-300
+
+
+def csv_header(line):
+    """The column names when `line` is a CSV header (two or more names, no number), else None."""
+    fields = [f.strip() for f in line.split(",")]
+    if len(fields) < 2 or not all(HEADER_NAME.match(f) for f in fields):
+        return None
+    return fields
+
+
+def same_line(expected, actual, columns, tol):
+    """Token by token; inside a CSV row under a header, time fields compare absolutely."""
+    if columns and expected.count(",") + 1 == len(columns) and actual.count(",") + 1 == len(columns):
+        fe, fa = expected.split(","), actual.split(",")
+        return all(same_line(x, y, None, Tolerance(tol.value, tol.time)) if not TIME_COLUMN.match(name)
+                   else same_tokens(x, y, tol.time, True)
+                   for name, x, y in zip(columns, fe, fa))
+    return same_tokens(expected, actual, tol.value, False)
+
+
+def same_tokens(expected, actual, tol, absolute):
+    te, ta = tokens(expected), tokens(actual)
+    return len(te) == len(ta) and all(
+        x == y or (NUMBER.fullmatch(x) and NUMBER.fullmatch(y) and same_number(x, y, tol, absolute))
+        for x, y in zip(te, ta))
 
 
 def compare(name, expected, actual, tol):
@@ -42,12 +102,12 @@ def compare(name, expected, actual, tol):
     el, al = expected.splitlines(), actual.splitlines()
     if len(el) == len(al):
         bad = None
+        columns = None
         for i, (e, a) in enumerate(zip(el, al)):
-            te, ta = tokens(e), tokens(a)
-            if len(te) != len(ta) or not all(
-                x == y or (NUMBER.fullmatch(x) and NUMBER.fullmatch(y) and same_number(x, y, tol))
-                for x, y in zip(te, ta)
-            ):
+            header = csv_header(e)
+            if header is not None and e == a:
+                columns = header
+            if not same_line(e, a, columns, tol):
                 bad = i
                 break
         if bad is None:
@@ -87,7 +147,7 @@ def main():
     out = portable(proc.stdout.decode("utf-8", "replace"))
     err = portable(proc.stderr.decode("utf-8", "replace"))
     status = int(read("status").strip()) if exists("status") else 0
-    tol = float(read("tolerance").strip()) if exists("tolerance") else 1e-9
+    tol = Tolerance.parse(read("tolerance")) if exists("tolerance") else Tolerance()
     if args.update:
         open(os.path.join(case, "expout"), "w").write(out)
         open(os.path.join(case, "experr"), "w").write(err)

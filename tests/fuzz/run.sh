@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (candump text, DBC) with clang and runs each from the captures and
-# DBC files of tests/data/can plus the inputs that once failed (tests/fuzz/regressions/<target>).
+# Builds the libFuzzer targets (candump text, DBC, URDF to chain) with clang and runs each from
+# the captures and DBC files of tests/data/can, the URDFs of tests/data and tests/cli (each
+# prefixed with its "ROOT TIP" line), plus the inputs that once failed
+# (tests/fuzz/regressions/<target>).
 #   tests/fuzz/run.sh [RUNS]      RUNS inputs per target (default 100000) with a fixed seed, so
 #                                 that CI is reproducible: the same tree gives the same verdict
 #   FUZZ_SECONDS=600 tests/fuzz/run.sh    explore for that long instead, with a random seed
@@ -24,29 +26,57 @@ if [[ -z "$cxx" ]]; then
 fi
 mkdir -p "$work"
 flags=(-std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -I"$src/lib/include")
-sources=("$src"/lib/src/can/*.cpp "$src/lib/src/stream/error.cpp")
+sources=("$src"/lib/src/can/*.cpp "$src"/lib/src/core/*.cpp)
+model_sources=("$src"/lib/src/model/*.cpp "$src"/lib/src/stream/*.cpp "$src"/lib/src/core/*.cpp)
+model_flags=(-isystem /usr/include/eigen3)
+model_libs=(-lurdfdom_model -lconsole_bridge)
+targets=(candump dbc urdf)
 status=0
-# Both targets build at once (a minute of instrumented compiling otherwise spent one core at a time).
-echo "fuzz: building candump, dbc"
+# The targets build at once (a minute of instrumented compiling otherwise spent one core at a time).
+echo "fuzz: building ${targets[*]}"
 pids=()
-for target in candump dbc; do
-  "$cxx" "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" -o "$work/fuzz_$target" &
+for target in "${targets[@]}"; do
+  if [[ $target == urdf ]]; then
+    "$cxx" "${flags[@]}" "${model_flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${model_sources[@]}" \
+      "${model_libs[@]}" -o "$work/fuzz_$target" &
+  else
+    "$cxx" "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" -o "$work/fuzz_$target" &
+  fi
   pids+=($!)
 done
 for pid in "${pids[@]}"; do wait "$pid" || { echo "fuzz: a target did not build" >&2; exit 1; }; done
-for target in candump dbc; do
+for target in "${targets[@]}"; do
   corpus="$work/corpus_$target"
   mkdir -p "$corpus"
   if [[ $target == candump ]]; then
     cp "$src"/tests/data/can/*.log "$src"/tests/data/can/formats/*.log "$src"/tests/data/can/formats/*.txt "$corpus"/
-  else
+  elif [[ $target == dbc ]]; then
     cp "$src"/tests/data/can/*.dbc "$src"/tests/data/can/formats/*.dbc "$corpus"/
+  else
+    # Each URDF with the chain its profile names (root and tip from the profile next to it).
+    for profile in "$src"/tests/data/*.json "$src"/tests/cli/mo-model/urdf-*/profile.json; do
+      python3 - "$profile" "$corpus" <<'PY' || true
+import json, os, re, sys
+path, corpus = sys.argv[1], sys.argv[2]
+text = re.sub(r"^\s*//.*$", "", open(path).read(), flags=re.M)
+try:
+    p = json.loads(text)
+    urdf = os.path.join(os.path.dirname(path), p["urdf"])
+    body = open(urdf).read()
+except Exception:
+    sys.exit(0)
+name = os.path.basename(os.path.dirname(path)) + "_" + os.path.basename(path) + ".txt"
+open(os.path.join(corpus, name), "w").write(p["root"] + " " + p["tip"] + "\n" + body)
+PY
+    done
   fi
   if [[ -d "$src/tests/fuzz/regressions/$target" ]]; then
     cp "$src/tests/fuzz/regressions/$target"/* "$corpus"/
   fi
   echo "fuzz: running $target ($what)"
-  if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 "./fuzz_$target" "${budget[@]}" -max_len=4096 \
+  max_len=4096
+  [[ $target == urdf ]] && max_len=65536  # real URDFs are tens of kilobytes
+  if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 "./fuzz_$target" "${budget[@]}" -max_len=$max_len -timeout=10 \
         -print_final_stats=1 -artifact_prefix="$work/${target}-" "$corpus" > "$work/$target.log" 2>&1); then
     echo "fuzz: $target FAILED; see $work/$target.log and $work/${target}-*" >&2
     tail -30 "$work/$target.log" >&2

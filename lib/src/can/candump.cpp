@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "momentum/can/asc.hpp"
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::can {
@@ -553,6 +554,7 @@ bool CandumpReader::next_line(std::string_view& line) {
         discarding_long_line_ = false;
         continue;
       }
+      if (line_no_ == 1) line = core::strip_byte_order_mark(line);  // some editors write one
       return true;
     }
     if (eof_) {
@@ -560,6 +562,7 @@ bool CandumpReader::next_line(std::string_view& line) {
         line = std::string_view(base + begin_, end_ - begin_);
         begin_ = end_;
         ++line_no_;
+        if (line_no_ == 1) line = core::strip_byte_order_mark(line);
         return true;
       }
       begin_ = end_;
@@ -604,7 +607,7 @@ void CandumpReader::report_bad(const char* message) {
   ++stats_.bad_lines;
   std::string text = located(name_, line_no_, message);
   if (options_.strict) throw Error(text);
-  warn(text);
+  warn_row(message, text);
 }
 
 bool CandumpReader::parse_next(Frame& frame, ParsedLine& info) {

@@ -9,17 +9,14 @@
 #include <map>
 #include <sstream>
 
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::can {
 
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
+using core::trim;
 
 bool valid_column_name(std::string_view s) {
   if (s.empty()) return false;

@@ -9,6 +9,7 @@
 #include <map>
 #include <sstream>
 
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::can {
@@ -250,7 +251,7 @@ Database DbcParser::run() {
       bool keyword_like = true;
       for (char c : kw)
         if (!((c >= 'A' && c <= 'Z') || c == '_' || (c >= '0' && c <= '9'))) keyword_like = false;
-      if (!keyword_like) fail("unknown statement '" + std::string(kw) + "'");
+      if (!keyword_like) fail("unknown statement '" + core::printable(kw) + "'");
       skip_statement(kw);
     }
   }
@@ -313,7 +314,7 @@ void DbcParser::parse_signal() {
       while (ok && i < mux.size() && mux[i] >= '0' && mux[i] <= '9') ++i, ++digits;
       ok = ok && digits > 0 && (i == mux.size() || (i + 1 == mux.size() && mux[i] == 'M'));
     }
-    if (!ok) fail("bad multiplexer indicator '" + mux + "' for signal " + s.name);
+    if (!ok) fail("bad multiplexer indicator '" + core::printable(mux) + "' for signal " + s.name);
   }
   expect(':');
   const std::uint64_t start = unsigned_number("start bit");
@@ -649,7 +650,7 @@ void DbcParser::finish() {
 }
 
 Database Database::parse(std::string_view text, std::string_view name) {
-  DbcParser parser(text, name);
+  DbcParser parser(core::strip_byte_order_mark(text), name);  // some editors write one
   return parser.run();
 }
 

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/version.hpp"
 
@@ -28,6 +29,12 @@ void Tool::add_stream_output() {
   app_.add_option("--output-format", output_format_, "csv or bin (default: the input's encoding)")
       ->check(CLI::IsMember({"csv", "bin"}));
   app_.add_flag("--line-buffered", line_buffered_, "flush every row (for live pipelines)");
+  add_strict();
+}
+
+void Tool::add_strict() {
+  if (strict_added_) return;
+  strict_added_ = true;
   app_.add_flag("--strict", strict_, "stop at the first bad row instead of skipping it");
 }
 
@@ -55,9 +62,45 @@ std::string Tool::provenance() const {
   return line;
 }
 
-std::unique_ptr<stream::Reader> Tool::open_input(const std::string& path, stream::ReaderOptions options) const {
+std::unique_ptr<stream::Reader> Tool::open_input(const std::string& path, stream::ReaderOptions options) {
   options.strict = options.strict || strict_;
-  return stream::Reader::open(path, std::move(options));
+  options.rows_returned = &rows_returned_;
+  auto reader = stream::Reader::open(path, std::move(options));
+  ++inputs_opened_;
+  if (input_names_.size() < 3) input_names_.push_back(reader->name());
+  return reader;
+}
+
+void Tool::report_skipped_rows() {
+  if (rows_skipped_ == 0) return;
+  std::string kinds;
+  for (const auto& [kind, count] : skipped_by_kind_) {
+    if (count > kShownPerKind)
+      warn(std::to_string(count - kShownPerKind) + " more '" + kind + "' warning" +
+           (count - kShownPerKind == 1 ? "" : "s") + " not shown");
+    kinds += (kinds.empty() ? "" : ", ") + std::to_string(count) + " " + kind;
+  }
+  warn(std::to_string(rows_skipped_) + " bad row" + (rows_skipped_ == 1 ? "" : "s") + " skipped: " + kinds);
+  rows_skipped_ = 0;
+  skipped_by_kind_.clear();
+}
+
+int Tool::finish_rows(int status) {
+  const bool skipped = rows_skipped_ > 0;
+  report_skipped_rows();
+  if (status == kSuccess && check_no_rows_ && inputs_opened_ > 0 && rows_returned_ == 0) {
+    std::string names;
+    for (const auto& n : input_names_) names += (names.empty() ? "" : ", ") + n;
+    if (inputs_opened_ > input_names_.size()) names += ", ...";
+    if (no_rows_warning_) {
+      warn("no rows in " + names);
+    } else {
+      std::cerr << name_ << ": error: no rows in " << names << "\n";
+    }
+    return no_rows_status_;
+  }
+  if (status == kSuccess && skipped && skipped_rows_status_) return *skipped_rows_status_;
+  return status;
 }
 
 std::unique_ptr<stream::Writer> Tool::open_output(stream::Reader& like) const {
@@ -102,19 +145,27 @@ int Tool::run(int argc, char** argv, const std::function<int()>& body) {
       std::fwrite(line.data(), 1, line.size(), stderr);
     }
   });
+  set_row_warning_sink([this](std::string_view kind, std::string_view message) {
+    ++rows_skipped_;
+    auto it = skipped_by_kind_.find(kind);
+    if (it == skipped_by_kind_.end()) it = skipped_by_kind_.emplace(std::string(kind), 0).first;
+    if (++it->second <= kShownPerKind) warn(message);
+  });
   try {
     int status = body();
     std::cout.flush();
-    return status;
+    return finish_rows(status);
   } catch (const stream::BrokenPipe&) {
     return kSuccess;
   } catch (const UsageError& e) {
     std::cerr << name_ << ": error: " << e.what() << " (see " << name_ << " --help)\n";
     return kUsage;
   } catch (const Error& e) {
+    report_skipped_rows();
     std::cerr << name_ << ": error: " << e.what() << "\n";
     return kFailure;
   } catch (const std::exception& e) {
+    report_skipped_rows();
     std::cerr << name_ << ": error: " << e.what() << "\n";
     return kFailure;
   }
@@ -150,27 +201,21 @@ const CLI::Validator& whole_number() {
   return check;
 }
 
-std::vector<std::string> split_list(const std::string& text, char separator) {
-  std::vector<std::string> parts;
-  if (text.empty()) return parts;
-  std::size_t start = 0;
-  for (;;) {
-    std::size_t end = text.find(separator, start);
-    parts.push_back(text.substr(start, end - start));
-    if (end == std::string::npos) break;
-    start = end + 1;
-  }
-  return parts;
-}
 
 std::vector<double> parse_number_list(const std::string& text, const std::string& option) {
   std::vector<double> values;
-  for (const auto& part : split_list(text)) {
+  for (const auto& part : core::split(text)) {
     auto value = stream::parse_double(part);
     if (!value) throw UsageError(option + ": '" + part + "' is not a number");
     values.push_back(*value);
   }
   return values;
+}
+
+std::unique_ptr<core::FileLock> lock_for_update(const std::string& path) {
+  return std::make_unique<core::FileLock>(path, [](const std::string& name) {
+    warn(name + ": another run is updating this profile; waiting for it to finish");
+  });
 }
 
 void write_text(const std::string& path, const std::string& text, const std::string& what) {

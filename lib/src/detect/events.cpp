@@ -10,6 +10,7 @@
 #include <cstring>
 #include <limits>
 
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/writer.hpp"
@@ -37,11 +38,7 @@ std::vector<std::string_view> split_fields(std::string_view line) {
   return fields;
 }
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
+using core::trim;
 
 }  // namespace
 
@@ -224,7 +221,7 @@ std::optional<Event> EventReader::next() {
     throw fail(std::to_string(fields.size()) + " fields, header has " + std::to_string(width_));
   auto number = [&](std::size_t column, const char* what) {
     auto value = stream::parse_double(trim(fields[column]));
-    if (!value) throw fail(std::string("bad ") + what + " '" + std::string(fields[column]) + "'");
+    if (!value) throw fail(std::string("bad ") + what + " '" + core::printable(fields[column]) + "'");
     return *value;
   };
   auto integer = [&](std::string_view text, const char* what) {
@@ -232,7 +229,7 @@ std::optional<Event> EventReader::next() {
     long long value = 0;
     auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
     if (ec != std::errc() || end != text.data() + text.size() || text.empty())
-      throw fail(std::string("bad ") + what + " '" + std::string(text) + "'");
+      throw fail(std::string("bad ") + what + " '" + core::printable(text) + "'");
     return value;
   };
   Event e;
@@ -241,7 +238,7 @@ std::optional<Event> EventReader::next() {
   const std::string_view kind = trim(fields[c_kind_]);
   if (kind == "onset") e.kind = EventKind::onset;
   else if (kind == "end") e.kind = EventKind::end;
-  else throw fail("bad kind '" + std::string(kind) + "' (onset or end)");
+  else throw fail("bad kind '" + core::printable(kind) + "' (onset or end)");
   const long long id = integer(fields[c_id_], "event");
   if (id < 1) throw fail("bad event number " + std::to_string(id));
   e.id = static_cast<std::uint64_t>(id);
@@ -267,7 +264,7 @@ std::optional<Event> EventReader::next() {
     else if (by == "next") e.ended_by = EndReason::next;
     else if (by == "eof") e.ended_by = EndReason::eof;
     else if (by == "signal") e.ended_by = EndReason::signal;
-    else if (!by.empty()) throw fail("bad ended_by '" + std::string(by) + "'");
+    else if (!by.empty()) throw fail("bad ended_by '" + core::printable(by) + "'");
   }
   for (std::size_t c : c_peaks_) e.peaks.push_back(number(c, "peak"));
   return e;

@@ -11,8 +11,8 @@
 #include <cerrno>
 #include <cstring>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
-#include "momentum/stream/format.hpp"
 
 extern char** environ;
 
@@ -32,10 +32,7 @@ void on_signal(int number) {
   errno = saved;
 }
 
-std::string number_text(double value) {
-  char buffer[40];
-  return std::string(buffer, stream::format_double(value, buffer));
-}
+std::string number_text(double value) { return core::exact(value); }
 
 }  // namespace
 

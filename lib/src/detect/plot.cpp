@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/reader.hpp"
@@ -15,10 +16,7 @@ namespace momentum::detect {
 
 namespace {
 
-std::string num(double x) {
-  char buffer[40];
-  return std::string(buffer, stream::format_double(x, buffer));
-}
+std::string num(double x) { return core::exact(x); }
 
 // A gnuplot single-quoted string: '' stands for one quote.
 std::string gp_string(const std::string& text) {
@@ -144,7 +142,8 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
          " font 'Sans,10' background rgb 'white'\n} else {\n  set terminal png size " + std::to_string(options.width) +
          "," + std::to_string(height) + "\n}\n";
   }
-  s += "set output " + gp_string(output) + "\n";
+  // "-": standard output, as everywhere in the suite (gnuplot writes there without a name).
+  s += output == "-" ? std::string("set output\n") : "set output " + gp_string(output) + "\n";
   // Data blocks: residual as a min/max zig-zag per bucket, band as steps.
   const auto& buckets = data.buckets();
   for (std::size_t c = 0; c < columns; ++c) {

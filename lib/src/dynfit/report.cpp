@@ -5,6 +5,7 @@
 
 #include "momentum/dynfit/regressor.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/stream/reader.hpp"
 
 namespace momentum::dynfit {
 
@@ -87,8 +88,13 @@ std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier&
   std::uint64_t rows = 0;
   while (const double* row = in.next()) {
     const double t = row[t_col];
+    if (in.time_mark() == stream::TimeMark::clock_step) {
+      // The stream's time policy kept this row as the start of a new time line.
+      identifier.restart();
+      t_last = -std::numeric_limits<double>::infinity();
+    }
     if (std::isfinite(t) && !(t > t_last)) {
-      in.reject_row("time " + format("%.17g", t) + " does not increase");
+      in.reject_row("time does not increase", "t=" + format("%.17g", t));
       continue;
     }
     if (std::isfinite(t)) t_last = t;

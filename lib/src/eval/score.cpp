@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/reader.hpp"
@@ -17,24 +18,17 @@ namespace momentum::eval {
 
 namespace {
 
+// A field without blanks around it and without the quotes a spreadsheet may add.
 std::string trim(std::string_view text) {
-  std::size_t a = 0, b = text.size();
-  while (a < b && std::isspace(static_cast<unsigned char>(text[a]))) ++a;
-  while (b > a && std::isspace(static_cast<unsigned char>(text[b - 1]))) --b;
-  std::string out(text.substr(a, b - a));
+  std::string out(core::trim(text));
   if (out.size() >= 2 && out.front() == '"' && out.back() == '"') out = out.substr(1, out.size() - 2);
   return out;
 }
 
 std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> fields;
-  std::size_t start = 0;
-  for (;;) {
-    const std::size_t comma = line.find(',', start);
-    fields.push_back(trim(std::string_view(line).substr(start, comma == std::string::npos ? std::string::npos : comma - start)));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
+  std::vector<std::string> fields = core::split(line);
+  for (auto& field : fields) field = trim(field);
+  if (fields.empty()) fields.emplace_back();  // an empty line is one empty field
   return fields;
 }
 
@@ -103,7 +97,7 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
   std::uint64_t number = 0;
   auto reject = [&](const std::string& message) {
     if (strict) throw Error(located(name, number, message));
-    warn(located(name, number, message + "; row skipped"));
+    warn_row("bad event row", located(name, number, message + "; row skipped"));
   };
   while (std::getline(in, line)) {
     ++number;
@@ -146,14 +140,14 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
     d.where = name + ":" + std::to_string(number);
     const auto t = stream::parse_double(fields[c_detect]);
     if (!t || !std::isfinite(*t)) {
-      reject("t_detect '" + fields[c_detect] + "' is not a time");
+      reject("t_detect '" + core::printable(fields[c_detect]) + "' is not a time");
       continue;
     }
     d.t_detect = *t;
     if (!fields[c_link].empty()) {
       const auto link = stream::parse_double(fields[c_link]);
       if (!link || *link != std::floor(*link) || *link < 0 || *link > 1e6) {
-        reject("link '" + fields[c_link] + "' is not a link number");
+        reject("link '" + core::printable(fields[c_link]) + "' is not a link number");
         continue;
       }
       d.link = static_cast<int>(*link);

@@ -118,8 +118,15 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
   std::vector<std::uint8_t> pending(joints.size(), 1);  // next good row restarts the joint
   bool have_time = false;
   double t_first = 0, t_last = 0;
+  double shift = 0, last_step = 0;  // after a clock step back, stream time + shift continues t_last
   while (const double* row = in.next()) {
-    const double t = row[t_col];
+    if (have_time && in.time_mark() == stream::TimeMark::clock_step) {
+      // The stream's time policy kept this row as the start of a new time line: append it
+      // like a log of its own (append_series), the next row restarting every joint.
+      shift = t_last + (last_step > 0 ? last_step : 1.0) - row[t_col];
+      std::fill(pending.begin(), pending.end(), 1);
+    }
+    const double t = row[t_col] + shift;
     if (!std::isfinite(t)) {
       in.reject_row("time is not a finite number");
       continue;
@@ -129,12 +136,14 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       continue;
     }
     if (!have_time) t_first = t;
+    if (have_time) last_step = t - t_last;
     have_time = true;
     t_last = t;
-    if (options.window_end && t > *options.window_end) continue;
+    const double stream_t = row[t_col];  // --window is in the stream's own time
+    if (options.window_end && stream_t > *options.window_end) continue;
     const bool restart_row = restart_col && row[*restart_col] != 0;
     const bool counts = t >= t_first + options.skip &&
-                        (!options.window_begin || t >= *options.window_begin);
+                        (!options.window_begin || stream_t >= *options.window_begin);
     bool positions_ok = true;
     for (std::size_t c : q_col) positions_ok = positions_ok && std::isfinite(row[c]);
     for (std::size_t i = 0; i < joints.size(); ++i) {

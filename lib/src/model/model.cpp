@@ -38,22 +38,51 @@ class CapturingHandler : public console_bridge::OutputHandler {
   std::string messages;
 };
 
-urdf::ModelInterfaceSharedPtr parse_urdf(const std::filesystem::path& urdf_path) {
-  static std::mutex mutex;  // console_bridge's handler is process-wide
-  std::lock_guard<std::mutex> lock(mutex);
-  const std::string where = urdf_path.string();
-  {
-    std::ifstream probe(urdf_path);
-    if (!probe) {
-      throw Error(located(where, 0, std::string("cannot open urdf: ") + std::strerror(errno)));
+// The joints must form a tree before anything walks it (urdfdom links what it finds, so a cycle
+// below the root makes a recursive walk run forever, and a link with two parent joints is
+// reached twice). Names the first offending joint (in name order, so the message is stable).
+void check_urdf_tree(const urdf::ModelInterface& model, const std::string& where) {
+  auto fail = [&](const std::string& joint, const std::string& message) {
+    throw Error(located(where, 0, "joint " + in_quotes(joint) + ": " + message));
+  };
+  std::map<std::string, std::string> parent_joint;  // child link -> the joint that names it
+  for (const auto& [name, joint] : model.joints_) {
+    if (!joint) fail(name, "empty joint");
+    if (joint->parent_link_name.empty() || !model.getLink(joint->parent_link_name))
+      fail(name, "parent link " + in_quotes(joint->parent_link_name) + " is not in the urdf");
+    if (joint->child_link_name.empty() || !model.getLink(joint->child_link_name))
+      fail(name, "child link " + in_quotes(joint->child_link_name) + " is not in the urdf");
+    if (joint->parent_link_name == joint->child_link_name)
+      fail(name, "link " + in_quotes(joint->child_link_name) + " is its own parent");
+    const auto [it, inserted] = parent_joint.emplace(joint->child_link_name, name);
+    if (!inserted)
+      fail(name, "link " + in_quotes(joint->child_link_name) + " already has a parent (joint " +
+                     in_quotes(it->second) + "): the joints do not form a tree");
+  }
+  // With one parent per link, a walk up from any link ends at a link without a parent unless
+  // it runs into a cycle: more steps than joints.
+  for (const auto& [link, joint] : parent_joint) {
+    std::string at = link;
+    std::size_t steps = 0;
+    for (auto up = parent_joint.find(at); up != parent_joint.end(); up = parent_joint.find(at)) {
+      if (++steps > parent_joint.size())
+        fail(joint, "the joints form a cycle through link " + in_quotes(link) + ": the urdf is not a tree");
+      at = model.joints_.at(up->second)->parent_link_name;
     }
   }
+}
+
+// Parses URDF text under a process-wide lock (console_bridge's handler is process-wide) and
+// checks the tree. `where` names the file in messages.
+urdf::ModelInterfaceSharedPtr parse_urdf_text(const std::string& text, const std::string& where) {
+  static std::mutex mutex;
+  std::lock_guard<std::mutex> lock(mutex);
   CapturingHandler handler;
   console_bridge::OutputHandler* previous = console_bridge::getOutputHandler();
   console_bridge::useOutputHandler(&handler);
   urdf::ModelInterfaceSharedPtr model;
   try {
-    model = urdf::parseURDFFile(urdf_path.string());
+    model = urdf::parseURDF(text);
   } catch (...) {
     console_bridge::useOutputHandler(previous);
     throw;
@@ -68,7 +97,18 @@ urdf::ModelInterfaceSharedPtr parse_urdf(const std::filesystem::path& urdf_path)
     }
     throw Error(located(where, 0, "cannot parse urdf: " + why));
   }
+  check_urdf_tree(*model, where);
   return model;
+}
+
+urdf::ModelInterfaceSharedPtr parse_urdf(const std::filesystem::path& urdf_path) {
+  const std::string where = urdf_path.string();
+  std::ifstream file(urdf_path, std::ios::binary);
+  if (!file) throw Error(located(where, 0, std::string("cannot open urdf: ") + std::strerror(errno)));
+  std::ostringstream text;
+  text << file.rdbuf();
+  if (!file && !file.eof()) throw Error(located(where, 0, "cannot read urdf"));
+  return parse_urdf_text(text.str(), where);
 }
 
 Placement to_placement(const urdf::Pose& pose) {
@@ -371,6 +411,12 @@ Model build_model(const Profile& profile) {
   Model model = Builder{profile, *urdf, profile.urdf.string(), {}}.build();
   apply_inertial_corrections(profile, model);  // mo-dynfit's corrections, if any
   return model;
+}
+
+Model build_model_from_urdf_text(const Profile& profile, const std::string& urdf_text) {
+  const std::string where = profile.urdf.empty() ? std::string("<urdf>") : profile.urdf.string();
+  const urdf::ModelInterfaceSharedPtr urdf = parse_urdf_text(urdf_text, where);
+  return Builder{profile, *urdf, where, {}}.build();
 }
 
 }  // namespace momentum::model

@@ -1,8 +1,5 @@
 #include "momentum/model/profile.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -12,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "momentum/core/file.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile_text.hpp"
 #include "momentum/stream/error.hpp"
@@ -253,49 +251,9 @@ void save_profile_atomically(const nlohmann::json& document, const std::filesyst
 }
 
 void save_profile_text_atomically(const std::string& text, const std::filesystem::path& path) {
-  std::filesystem::path folder = path.parent_path();
-  if (folder.empty()) folder = ".";
-  std::string name = ".";
-  name.append(path.filename().string()).append(".XXXXXX");
-  std::string temp = (folder / name).string();
-  const int fd = ::mkstemp(temp.data());
-  if (fd < 0) fail(path, std::string("cannot create a temporary file: ") + std::strerror(errno));
-  auto abandon = [&](const std::string& what) {
-    const int saved = errno;
-    ::close(fd);
-    ::unlink(temp.c_str());
-    fail(path, what + ": " + std::strerror(saved));
-  };
-  // Keep the mode of the profile being replaced; new profiles get rw-r--r--.
-  struct stat old {};
-  const mode_t mode = ::stat(path.c_str(), &old) == 0 ? (old.st_mode & 07777) : 0644;
-  if (::fchmod(fd, mode) != 0) abandon("cannot set the mode of the temporary file");
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      abandon("cannot write the temporary file");
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) abandon("cannot sync the temporary file");
-  if (::close(fd) != 0) {
-    const int saved = errno;
-    ::unlink(temp.c_str());
-    fail(path, std::string("cannot close the temporary file: ") + std::strerror(saved));
-  }
-  if (::rename(temp.c_str(), path.c_str()) != 0) {
-    const int saved = errno;
-    ::unlink(temp.c_str());
-    fail(path, std::string("cannot replace the profile: ") + std::strerror(saved));
-  }
-  // Make the rename itself durable.
-  const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY);
-  if (dir >= 0) {
-    ::fsync(dir);
-    ::close(dir);
-  }
+  // Where the bytes go and how they replace the file is core's (symlinks followed, only a
+  // regular file replaced, mode kept, read-only refused, atomic rename, no temporary left).
+  core::replace_file(path, text);
 }
 
 void append_provenance(nlohmann::json& document, const std::string& tool,

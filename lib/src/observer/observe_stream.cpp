@@ -8,22 +8,14 @@
 #include <string>
 #include <vector>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 
 namespace momentum::observer {
 namespace {
 
-std::string exact(double value) {
-  char buffer[40];
-  return std::string(buffer, stream::format_double(value, buffer));
-}
-
-std::string short_number(double value) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
-}
+using core::exact;
 
 // The largest j for which a column prefix<j> exists (j >= 1), or 0.
 int largest_joint_column(const stream::Reader& in, const std::string& prefix) {
@@ -119,12 +111,6 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   std::string first_skipped;
   std::uint64_t rows = 0;
   double t = 0;
-  // A row whose time stamp jumps ahead (a gap) is held until the next row shows whether it
-  // was written early: then it alone is skipped, not every row it overtook (and a corrupt time
-  // stamp far in the future does not end the log). This delays output by one row after a gap.
-  std::vector<double> held(width_in);
-  bool holding = false;
-  std::string held_where;
 
   // Counts, reports (the first few of each kind) and skips a row whose time does not increase.
   auto skip = [&](bool duplicate, const std::string& where, const std::string& message) {
@@ -133,7 +119,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     std::uint64_t& count = duplicate ? summary.duplicate_rows : summary.out_of_order_rows;
     ++count;
     if (first_skipped.empty()) first_skipped = where;
-    if (count <= kReportedPerKind) warn(where + ": " + message + ": skipped");
+    if (count <= kReportedPerKind) warn_row(duplicate ? "duplicate row" : "time out of order", where + ": " + message + ": skipped");
   };
 
   // Steps the observer with one row and writes it. `where`: its location, or nullptr for the
@@ -207,40 +193,33 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   while (const double* row = in_.next()) {
     ++rows;
     if (options_.progress && (rows & 0xffff) == 0) options_.progress(rows, t);
-    const double t_row = row[t_index_];
     const bool duplicate = have_previous_row &&
                            std::equal(row, row + width_in, previous_row.begin(),
                                       [](double a, double b) { return a == b || (a != a && b != b); });
     std::copy(row, row + width_in, previous_row.begin());
     have_previous_row = true;
-    if (holding) {
-      holding = false;
-      if (t_row < held[t_index_] && t_row > observer_.last_time()) {
-        // The next row falls between the last good row and the held one: the held row was
-        // written early.
-        skip(false, held_where,
-             "row written early: t=" + exact(held[t_index_]) + " is ahead of the next row's t=" +
-                 exact(t_row));
-      } else {
-        process(held.data(), false, &held_where);
-      }
-    }
-    if (!duplicate && std::isfinite(t_row) && observer_.is_gap(t_row)) {
-      std::copy(row, row + width_in, held.begin());
-      held_where = in_.where();
-      holding = true;
-      continue;
+    if (in_.time_mark() == stream::TimeMark::clock_step) {
+      // The stream's time policy kept this row as the start of a new time line.
+      ++summary.restarts;
+      warn(in_.where() + ": observer restarted at t=" + exact(row[t_index_]) +
+           ": the clock stepped back from t=" + exact(observer_.last_time()));
+      observer_.restart_clock();
     }
     process(row, duplicate, nullptr);
   }
-  if (holding) process(held.data(), false, &held_where);
   if (summary.rejected_rows) {
+    // Only without the reader's time policy (which reports its own): rows the observer refused.
     std::string text = std::to_string(summary.rejected_rows) + " row" +
                        (summary.rejected_rows == 1 ? "" : "s") + " skipped for their time (";
     text += std::to_string(summary.duplicate_rows) + " duplicate, " +
             std::to_string(summary.out_of_order_rows) + " out of time order; first at " +
             first_skipped + ")";
     warn(text);
+  }
+  if (const stream::TimeOrder::Summary* time = in_.time_summary()) {
+    summary.duplicate_rows += time->duplicates;
+    summary.out_of_order_rows += time->out_of_order + time->not_finite;
+    summary.rejected_rows += time->dropped();
   }
   if (summary.bridged_gaps) {
     warn(std::to_string(summary.bridged_gaps) + " gap" + (summary.bridged_gaps == 1 ? "" : "s") +

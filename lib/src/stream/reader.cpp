@@ -11,6 +11,7 @@
 #include <cstring>
 #include <unordered_set>
 
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
 static_assert(std::endian::native == std::endian::little,
@@ -18,14 +19,63 @@ static_assert(std::endian::native == std::endian::little,
 
 namespace momentum::stream {
 
-void Reader::skip_bad(std::string_view message) {
-  std::string text = where() + ": " + std::string(message);
+void Reader::skip_bad(std::string_view kind, std::string_view message) {
+  std::string text = location(raw_position_) + ": " + std::string(message);
   if (strict_) throw Error(text);
   ++rows_skipped_;
-  warn(text);
+  warn_row(kind, text);
 }
 
-void Reader::reject_row(std::string_view message) { skip_bad(message); }
+void Reader::reject_row(std::string_view kind, std::string_view detail) {
+  std::string text = where() + ": " + std::string(kind);
+  if (!detail.empty()) text += ": " + std::string(detail);
+  if (strict_) throw Error(text);
+  ++rows_skipped_;
+  warn_row(kind, text);
+}
+
+void Reader::start_time_order(const ReaderOptions& options) {
+  const auto t = find("t");
+  if (!options.time_order || !t) return;
+  time_order_ = std::make_unique<TimeOrder>(
+      columns_.size(), *t, [this](std::uint64_t position, TimeFault fault, const std::string& detail) {
+        std::string text = location(position) + ": " + std::string(time_fault_name(fault)) + ": " + detail;
+        if (strict_) throw Error(text);
+        ++rows_skipped_;
+        warn_row(time_fault_name(fault), text + ": skipped");
+      });
+}
+
+void Reader::stop() {
+  if (ended_) return;
+  ended_ = true;
+  if (time_order_) time_order_->finish();
+}
+
+const double* Reader::next() {
+  if (!time_order_) {
+    const double* row = ended_ ? nullptr : read_row();
+    position_ = raw_position_;
+    if (row && rows_returned_) ++*rows_returned_;
+    return row;
+  }
+  for (;;) {
+    if (const TimeOrder::Row* row = time_order_->pop()) {
+      position_ = row->position;
+      time_mark_ = row->mark;
+      if (rows_returned_) ++*rows_returned_;
+      return row->values.data();
+    }
+    if (ended_) return nullptr;
+    const double* raw = read_row();
+    if (raw) {
+      time_order_->push(raw, raw_position_);
+    } else {
+      ended_ = true;
+      time_order_->finish();
+    }
+  }
+}
 
 std::optional<std::size_t> Reader::find(std::string_view column) const {
   for (std::size_t i = 0; i < columns_.size(); ++i)
@@ -108,12 +158,11 @@ class Input {
   bool eof_ = false;
 };
 
-std::string printable(std::string_view text) {
-  constexpr std::size_t kMax = 40;
-  std::string out(text.substr(0, kMax));
-  if (text.size() > kMax) out += "...";
-  return out;
-}
+using core::printable;
+
+// A CSV line longer than this is not a stream's row (binary data, or no newlines at all): it
+// is skipped as a bad row without being held in memory.
+constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
 
 void check_columns(const std::vector<std::string>& columns, const std::string& where) {
   std::unordered_set<std::string_view> seen;
@@ -121,15 +170,11 @@ void check_columns(const std::vector<std::string>& columns, const std::string& w
     if (columns[i].empty())
       throw Error(where + ": empty column name (column " + std::to_string(i + 1) + ")");
     if (!seen.insert(columns[i]).second)
-      throw Error(where + ": duplicate column name '" + columns[i] + "'");
+      throw Error(where + ": duplicate column name '" + printable(columns[i]) + "'");
   }
 }
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
+using core::trim;
 
 class CsvReader final : public Reader {
  public:
@@ -181,16 +226,16 @@ class CsvReader final : public Reader {
     row_.resize(columns_.size());
   }
 
-  const double* next() override {
+  const double* read_row() override {
     std::string_view line;
     for (;;) {
       if (has_pending_) {
         has_pending_ = false;
         line = pending_;
-        position_ = pending_line_;
+        raw_position_ = pending_line_;
       } else {
         if (!next_line(line)) return nullptr;
-        position_ = line_number_;
+        raw_position_ = line_number_;
       }
       if (line.empty()) continue;
       if (line.front() == '#') {
@@ -204,7 +249,7 @@ class CsvReader final : public Reader {
     }
   }
 
-  std::string where() const override { return name() + ":" + std::to_string(position_); }
+  std::string location(std::uint64_t position) const override { return name() + ":" + std::to_string(position); }
 
  private:
   bool next_line(std::string_view& line) {
@@ -214,11 +259,33 @@ class CsvReader final : public Reader {
       const char* newline = static_cast<const char*>(std::memchr(begin, '\n', rest));
       if (newline) {
         std::size_t length = static_cast<std::size_t>(newline - in_->data());
+        if (discarding_) {  // the end of a line too long to keep
+          in_->consume(length + 1);
+          scanned_ = 0;
+          ++line_number_;
+          discarding_ = false;
+          continue;
+        }
         finish_line(length, length + 1, line);
         return true;
       }
       scanned_ = in_->available();
+      if (!discarding_ && scanned_ > kMaxLineBytes) {
+        discarding_ = true;
+        raw_position_ = line_number_ + 1;
+        skip_bad("line too long", "line longer than " + std::to_string(kMaxLineBytes) +
+                                      " bytes (binary data, or no newlines?)");
+      }
+      if (discarding_) {
+        in_->consume(in_->available());
+        scanned_ = 0;
+      }
       if (!in_->fill()) {
+        if (discarding_) {
+          ++line_number_;
+          discarding_ = false;
+          return false;
+        }
         if (in_->available() == 0) return false;
         finish_line(in_->available(), in_->available(), line);  // last line, no newline
         return true;
@@ -231,6 +298,7 @@ class CsvReader final : public Reader {
     const char* start = in_->data();
     if (length > 0 && start[length - 1] == '\r') --length;
     line = std::string_view(start, length);
+    if (line_number_ == 0) line = core::strip_byte_order_mark(line);  // some editors write one
     in_->consume(consumed);
     scanned_ = 0;
     ++line_number_;
@@ -242,7 +310,7 @@ class CsvReader final : public Reader {
     std::size_t field = 0;
     for (;;) {
       if (field == fields_) {
-        skip_bad("expected " + std::to_string(fields_) + " fields, got more");
+        skip_bad("ragged row", "expected " + std::to_string(fields_) + " fields, got more");
         return false;
       }
       const char* comma = static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
@@ -252,7 +320,7 @@ class CsvReader final : public Reader {
       if (result.ec != std::errc() || result.ptr != field_end) {
         auto slow = parse_double(std::string_view(p, static_cast<std::size_t>(field_end - p)));
         if (!slow) {
-          skip_bad("bad number '" + printable(std::string_view(p, static_cast<std::size_t>(field_end - p))) +
+          skip_bad("bad number", "bad number '" + printable(std::string_view(p, static_cast<std::size_t>(field_end - p))) +
                    "' in column '" + column_name(field) + "'");
           return false;
         }
@@ -263,7 +331,7 @@ class CsvReader final : public Reader {
       p = comma + 1;
     }
     if (field != fields_) {
-      skip_bad("expected " + std::to_string(fields_) + " fields, got " + std::to_string(field));
+      skip_bad("ragged row", "expected " + std::to_string(fields_) + " fields, got " + std::to_string(field));
       return false;
     }
     for (std::size_t i = 0; i < keep_.size(); ++i) row_[i] = values_[keep_[i]];
@@ -276,6 +344,7 @@ class CsvReader final : public Reader {
   }
 
   std::unique_ptr<Input> in_;
+  bool discarding_ = false;  // inside a line longer than kMaxLineBytes
   std::size_t scanned_ = 0;
   std::uint64_t line_number_ = 0;
   std::size_t fields_ = 0;
@@ -313,14 +382,14 @@ class BinaryReader final : public Reader {
     record_ = columns_.size() * sizeof(double);
   }
 
-  const double* next() override {
+  const double* read_row() override {
     for (;;) {
-      position_ = in_->offset();
+      raw_position_ = in_->offset();
       if (!in_->want(record_)) {
         if (in_->available() == 0) return nullptr;
         std::size_t partial = in_->available();
         in_->consume(partial);
-        skip_bad("truncated record (" + std::to_string(partial) + " of " + std::to_string(record_) + " bytes)");
+        skip_bad("truncated record", "truncated record (" + std::to_string(partial) + " of " + std::to_string(record_) + " bytes)");
         return nullptr;
       }
       std::uint64_t first;
@@ -336,13 +405,15 @@ class BinaryReader final : public Reader {
     }
   }
 
-  std::string where() const override { return name() + ": byte " + std::to_string(position_); }
+  std::string location(std::uint64_t position) const override {
+    return name() + ": byte " + std::to_string(position);
+  }
 
  private:
   bool read_comment_record() {
     if (!in_->want(16)) {
       in_->consume(in_->available());
-      skip_bad("truncated comment record");
+      skip_bad("truncated record", "truncated comment record");
       return false;
     }
     std::uint64_t length;
@@ -350,7 +421,7 @@ class BinaryReader final : public Reader {
     std::size_t padded = static_cast<std::size_t>((length + 7) / 8 * 8);
     if (length > (1u << 24) || !in_->want(16 + padded)) {
       in_->consume(in_->available());
-      skip_bad("truncated or corrupt comment record");
+      skip_bad("truncated record", "truncated or corrupt comment record");
       return false;
     }
     if (comment_handler_) comment_handler_(std::string_view(in_->data() + 16, static_cast<std::size_t>(length)));
@@ -409,6 +480,8 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, ReaderOptions opti
     reader = std::make_unique<CsvReader>(std::move(input), name, options);
   }
   reader->live_ = live;
+  reader->start_time_order(options);
+  reader->rows_returned_ = options.rows_returned;
   return reader;
 }
 

@@ -15,10 +15,13 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "momentum/core/file.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/writer.hpp"
 
@@ -45,8 +48,28 @@ class Tool {
   // Positional input files; none or "-" means stdin.
   void add_inputs(const std::string& description = "input streams (- or none: stdin)");
   // -o FILE, --output-format csv|bin, --line-buffered, --strict: for tools that read and
-  // write sample streams.
+  // write sample streams. "-o -" is standard output.
   void add_stream_output();
+  // --strict: stop at the first bad row (line, record) instead of skipping it. For tools that
+  // read without writing a stream (add_stream_output adds it too).
+  void add_strict();
+
+  // The rows policy every tool shares (mo-log(5)). Rows skipped anywhere in the library
+  // (momentum::warn_row) are counted by kind; the first kShownPerKind of each kind are shown,
+  // and at the end one line sums them up ("12 bad rows skipped: 10 bad number, 2 time out of
+  // order") with a count of those not shown. A body that returns kSuccess after skipped rows
+  // exits with `status` (default kFailure); nullopt keeps the body's status (mo-detect, whose
+  // 1 means a collision).
+  void set_skipped_rows_status(std::optional<int> status) { skipped_rows_status_ = status; }
+  // When the tool opened inputs (open_input) and they held no row at all: by default an error
+  // (`name: error: no rows in INPUT`, exit 1). With `warning`, a warning and exit `status`
+  // instead (mo-detect: 3). Off with `check` false (a tool that may read nothing).
+  void set_no_rows_policy(bool check, int status = kFailure, bool warning = false) {
+    check_no_rows_ = check;
+    no_rows_status_ = status;
+    no_rows_warning_ = warning;
+  }
+  static constexpr std::uint64_t kShownPerKind = 5;
   // -p FILE, the robot profile.
   void add_profile(bool required = true);
   // --payload NAME: which of the profile's payloads the dynamics include ("none": none; not
@@ -73,9 +96,11 @@ class Tool {
   // One provenance comment for output streams: tool name, version and the arguments.
   std::string provenance() const;
 
-  // Opens one input with the tool's --strict setting.
-  std::unique_ptr<stream::Reader> open_input(const std::string& path,
-                                             stream::ReaderOptions options = {}) const;
+  // Opens one input with the tool's --strict setting; its rows count for the no-rows policy.
+  std::unique_ptr<stream::Reader> open_input(const std::string& path, stream::ReaderOptions options = {});
+  // Rows the inputs opened by open_input have returned so far, and rows skipped (every kind).
+  std::uint64_t rows_returned() const { return rows_returned_; }
+  std::uint64_t rows_skipped() const { return rows_skipped_; }
   // Opens the -o output in the encoding --output-format names (default: `like`'s), copies
   // `like`'s leading comments and adds the provenance line. Flushing: every row with
   // --line-buffered; otherwise whenever `like` is about to wait for input, so that a live
@@ -98,6 +123,20 @@ class Tool {
   bool quiet_ = false;
   bool strict_ = false;
   bool line_buffered_ = false;
+  bool strict_added_ = false;
+  // The rows policy.
+  std::optional<int> skipped_rows_status_ = kFailure;
+  bool check_no_rows_ = true;
+  int no_rows_status_ = kFailure;
+  bool no_rows_warning_ = false;
+  std::uint64_t inputs_opened_ = 0;
+  std::uint64_t rows_returned_ = 0;
+  std::uint64_t rows_skipped_ = 0;
+  std::map<std::string, std::uint64_t, std::less<>> skipped_by_kind_;
+  std::vector<std::string> input_names_;
+  // The summary line of skipped rows (and of warnings not shown); applies the status policy.
+  int finish_rows(int status);
+  void report_skipped_rows();
 };
 
 // A one-line progress display on a terminal (rewritten in place, at most 10 times a second);
@@ -118,10 +157,14 @@ class Progress {
 // A CLI11 check that accepts only a whole number >= 0 written in digits.
 const CLI::Validator& whole_number();
 
-// Splits "a,b,c" into parts; empty string gives no parts.
-std::vector<std::string> split_list(const std::string& text, char separator = ',');
 // Parses "1.5,2,3" into doubles; throws UsageError naming `option` on a bad number.
 std::vector<double> parse_number_list(const std::string& text, const std::string& option);
+
+// Takes the lock (core::FileLock) for an in-place update of the profile `path`, before the
+// profile is read, so that a concurrent run's read-compare-write cannot interleave with this
+// one (its worse fit cannot slip past the refusal); warns once when it has to wait. Throws
+// what core::FileLock throws (a profile that is not a regular file, for one).
+std::unique_ptr<core::FileLock> lock_for_update(const std::string& path);
 
 // Writes `text` (a report, a document) to the file `path`, replacing it, or to stdout when path
 // is "-". Throws momentum::Error "PATH: cannot write the WHAT" when the file cannot be written.

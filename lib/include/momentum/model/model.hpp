@@ -79,7 +79,9 @@ struct Model {
 };
 
 // Builds the chain of profile.root .. profile.tip from profile.urdf. Throws momentum::Error
-// whose message names the profile or URDF file when: the URDF is missing or unparsable; root
+// whose message names the profile or URDF file when: the URDF is missing or unparsable; its
+// joints do not form a tree (a link with two parent joints, a cycle, a joint naming a link that
+// is not there: `file: joint 'j': message`, checked before anything walks the tree); root
 // or tip is not a link of it; tip is not below root; a joint on the chain is floating or
 // planar; the profile's "joints" list has a different length than the chain's moving joints;
 // an inertial element has a negative mass, a mass of zero with a nonzero inertia, or a
@@ -90,6 +92,11 @@ struct Model {
 // profile file. The profile's "inertial_corrections" (mo-dynfit) are then added to the bodies'
 // standard parameters (inertial_corrections.hpp; a body left non-physical is an error).
 Model build_model(const Profile& profile);
+
+// The URDF-to-chain step of build_model on URDF text (messages name profile.urdf, or "<urdf>"
+// when it is empty), without the profile's inertial corrections. Throws what build_model
+// throws. For tests and the fuzz target.
+Model build_model_from_urdf_text(const Profile& profile, const std::string& urdf_text);
 
 // Checks one rotational inertia (about its com, any frame): symmetric, positive definite, and
 // principal moments satisfying the triangle inequality (each <= sum of the others, with a

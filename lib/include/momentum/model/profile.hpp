@@ -84,10 +84,11 @@ Profile profile_from_document(nlohmann::json document, const std::filesystem::pa
 // has that name (the message lists the names it has).
 void select_payload(Profile& profile, const std::string& name);
 
-// Writes `document` (format_profile_value's style, trailing newline) to a temporary file in
-// the destination's folder, fsyncs it, and renames it over `path`, so readers see either the
-// old or the new profile, never a torn one. Throws momentum::Error naming the file on any I/O
-// failure (the temporary file is removed).
+// Writes `document` (format_profile_value's style, trailing newline) with core::replace_file:
+// to the file `path` names after following symlinks, through a temporary file renamed over it,
+// so readers see either the old or the new profile, never a torn one; the mode is kept. Throws
+// momentum::Error naming the file on any I/O failure, for a target that is not a regular file
+// (a device) and for a read-only profile (the temporary file is removed).
 void save_profile_atomically(const nlohmann::json& document, const std::filesystem::path& path);
 
 // Same as save_profile_atomically for a profile's text, written as given.

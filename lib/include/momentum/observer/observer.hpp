@@ -151,6 +151,14 @@ class MomentumObserver {
   SampleStatus step(double t, const double* q, const double* dq, const double* tau_m, double* r,
                     double* tau_f, double* mu);
 
+  // Forgets the time line after a clock step back (stream::TimeMark::clock_step): the next
+  // sample starts the observer again (SampleStatus::started, r = 0), keeping the median step.
+  void restart_clock() {
+    have_time_ = false;
+    restart_pending_ = false;
+    bad_run_ = 0;
+  }
+
   // Running median of the recent sample intervals (the last 16), s; 0 before two samples.
   double median_dt() const { return median_dt_; }
   // True when a sample at time t would come after a gap (more than 1.5 running-median steps

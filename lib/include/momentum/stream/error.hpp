@@ -1,40 +1,4 @@
 #pragma once
-// Errors and warnings shared by every stage of the library.
-//
-// The library never prints. A runtime failure is thrown as momentum::Error, whose message is
-// already in the form a user reads (`file:line: message`, lowercase, no final period); the
-// command-line layer prefixes `mo-TOOL: error: `. Recoverable problems (a skipped row, an
-// observer restart) go to the warning sink, which tools route to stderr.
-
-#include <cstdint>
-#include <functional>
-#include <stdexcept>
-#include <string>
-#include <string_view>
-
-namespace momentum {
-
-// A runtime failure: bad input, unreadable file, a fit that cannot run. Exit status 1 in tools.
-class Error : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-// Receives one warning message (no tool prefix, no trailing newline).
-using WarningSink = std::function<void(std::string_view message)>;
-
-// Installs the process-wide warning sink; returns the previous one. The default sink writes
-// `warning: message` to stderr. Not thread-safe against concurrent warn() calls.
-WarningSink set_warning_sink(WarningSink sink);
-
-// Reports a recoverable problem through the current sink.
-void warn(std::string_view message);
-
-// `where: message` where `where` is `file:line` (or `file` when line is 0).
-std::string located(std::string_view file, std::uint64_t line, std::string_view message);
-
-// A number as messages and reports show it: 6 significant digits ("0.1", "1e-07", "inf",
-// "nan"), and -0 as "0".
-std::string short_number(double x);
-
-}  // namespace momentum
+// Errors and warnings live in the core stage (momentum/core/error.hpp); this name stays for the
+// stages and tools that include it.
+#include "momentum/core/error.hpp"

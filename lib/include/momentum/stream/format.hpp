@@ -6,6 +6,8 @@
 #include <string>
 #include <string_view>
 
+#include "momentum/core/number.hpp"
+
 namespace momentum::stream {
 
 enum class Encoding { csv, binary };
@@ -23,13 +25,8 @@ inline constexpr std::uint32_t kBinaryVersion = 1;
 // canonical NaN), so data rows never collide with it.
 inline constexpr std::uint64_t kCommentRecordBits = 0x7ff84d4f434d4e54ULL;  // "MOCMNT"
 
-// Writes the shortest text that parses back to exactly `value` (std::to_chars), into `out`
-// (at least 32 bytes); returns the number of characters. NaN is "nan" or "-nan", infinities
-// "inf" and "-inf".
-std::size_t format_double(double value, char* out);
-
-// Parses a whole field as a double (std::from_chars, plus "inf", "-inf", "nan", "-nan" and a
-// leading '+'); nullopt if the field is empty or not entirely a number.
-std::optional<double> parse_double(std::string_view field);
+// Numbers as text are core's (momentum/core/number.hpp); the stream names stay for callers.
+using core::format_double;
+using core::parse_double;
 
 }  // namespace momentum::stream

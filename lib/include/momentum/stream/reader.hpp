@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "momentum/stream/format.hpp"
+#include "momentum/stream/time_order.hpp"
 
 namespace momentum::stream {
 
@@ -27,6 +28,13 @@ struct ReaderOptions {
   // Reader::before_read() replaces it: a live tool waits there for a signal, and may throw to
   // stop waiting (the exception leaves open()).
   std::function<void()> before_read;
+  // Apply the suite's time-order policy (time_order.hpp) to the column "t" when the stream has
+  // one: rows whose time does not fit their neighbours are reported, counted and skipped like
+  // other bad rows, and a kept row after a clock step is marked (time_mark()). Off: rows come
+  // as written (mo-cat, mo-cat --stats).
+  bool time_order = true;
+  // When set, incremented for every row next() returns (a tool's count over its inputs).
+  std::uint64_t* rows_returned = nullptr;
 };
 
 class Reader {
@@ -52,18 +60,34 @@ class Reader {
   std::size_t require(std::string_view column) const;
 
   // The next good row (columns().size() values, valid until the next call), or nullptr at end
-  // of input. Bad rows (ragged, non-numeric, truncated binary record) are reported through
-  // momentum::warn with their location, counted and skipped; in strict mode they throw.
-  // Comment lines after the header are handed to the comment handler in stream order.
-  virtual const double* next() = 0;
+  // of input. Bad rows (ragged, non-numeric, truncated binary record, and with the time-order
+  // policy a time that does not fit) are reported through momentum::warn with their location,
+  // counted and skipped; in strict mode they throw momentum::Error. Comment lines after the
+  // header are handed to the comment handler in stream order.
+
+  // With the time-order policy, a row that follows a suspicious time is returned only once the
+  // next row has been read (constant memory: at most three rows are held).
+  const double* next();
+
+  // Reads nothing more: the rows the time-order policy still holds are decided as at the end
+  // of input and returned by the next calls of next(), then nullptr. For a tool that stops
+  // early (a signal), so that no row it already read is lost.
+  void stop();
 
   // Location of the row last returned: `file:line` for CSV, `file: byte N` for binary.
-  virtual std::string where() const = 0;
+  std::string where() const { return location(position_); }
+  // The location of a row at `position` (a line number or a byte offset).
+  virtual std::string location(std::uint64_t position) const = 0;
   // Line number (CSV) or byte offset (binary) of the row last returned.
   std::uint64_t position() const { return position_; }
 
+  // Rows parsed, and rows skipped (bad rows and rows dropped for their time).
   std::uint64_t rows_read() const { return rows_read_; }
   std::uint64_t rows_skipped() const { return rows_skipped_; }
+  // How the row last returned follows the one before it (TimeMark::none without the policy).
+  TimeMark time_mark() const { return time_mark_; }
+  // The time-order policy's counts, or nullptr when it is off (option, or no column "t").
+  const TimeOrder::Summary* time_summary() const { return time_order_ ? &time_order_->summary() : nullptr; }
 
   // Called with each comment line after the header (text without '#').
   void on_comment(std::function<void(std::string_view)> handler) { comment_handler_ = std::move(handler); }
@@ -71,9 +95,10 @@ class Reader {
   // consumer sees every row already produced while batch input stays fully buffered.
   void before_read(std::function<void()> hook) { before_read_ = std::move(hook); }
 
-  // Reports and counts a row the caller rejects for its own reasons (e.g. time going
-  // backwards); throws in strict mode. `message` has no location; the reader adds it.
-  void reject_row(std::string_view message);
+  // Reports (momentum::warn_row) and counts the row last returned, which the caller rejects
+  // for its own reasons: `kind` is a short fixed phrase ("time goes backwards"), `detail` more
+  // (may be empty); the reader adds the location. Throws momentum::Error in strict mode.
+  void reject_row(std::string_view kind, std::string_view detail = {});
 
  protected:
   Reader() = default;
@@ -83,12 +108,24 @@ class Reader {
   std::string name_;
   bool live_ = false;
   bool strict_ = false;
-  std::uint64_t position_ = 0;
+  std::uint64_t position_ = 0;      // the row last returned
+  std::uint64_t raw_position_ = 0;  // the row last parsed
   std::uint64_t rows_read_ = 0;
   std::uint64_t rows_skipped_ = 0;
   std::function<void(std::string_view)> comment_handler_;
   std::function<void()> before_read_;
-  void skip_bad(std::string_view message);
+  // Reports (momentum::warn_row with `kind`), counts and skips the row last parsed (throws in
+  // strict mode).
+  void skip_bad(std::string_view kind, std::string_view message);
+  // The next parsed row (raw_position_ set), or nullptr at end of input.
+  virtual const double* read_row() = 0;
+
+ private:
+  void start_time_order(const ReaderOptions& options);
+  std::unique_ptr<TimeOrder> time_order_;
+  TimeMark time_mark_ = TimeMark::none;
+  std::uint64_t* rows_returned_ = nullptr;
+  bool ended_ = false;
 };
 
 }  // namespace momentum::stream

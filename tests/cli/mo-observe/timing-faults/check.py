@@ -127,8 +127,8 @@ print(f"drops, jitter, early and duplicate rows: within noise 0.1 s after a faul
       f"{'yes' if rms <= 0.5 and peak <= 3 else 'NO'}; no spike at the faults: "
       f"{'yes' if near <= 5 else 'NO'}; restarts: {restarts}")
 # Skipped rows: exactly the duplicates and the early rows (not the rows they overtook).
-skipped = next((l for l in faulty_err.splitlines() if "skipped for their time" in l), "")
-expected = f"{duplicates + early} rows skipped for their time ({duplicates} duplicate, {early} out of time order"
+skipped = next((l for l in faulty_err.splitlines() if "bad rows skipped:" in l), "")
+expected = f"{duplicates + early} bad rows skipped: {duplicates} duplicate row, {early} time out of order"
 print(f"skipped rows counted: {'yes' if expected in skipped else 'NO: ' + skipped}")
 bridged = next((l for l in faulty_err.splitlines() if "bridged without a restart" in l), "")
 print(f"gaps bridged: {'yes' if bridged else 'NO'}", file=sys.stdout)

@@ -1,4 +1,4 @@
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 #include <cstdio>
 #include <utility>
@@ -12,7 +12,18 @@ WarningSink& sink() {
   static WarningSink current = default_sink;
   return current;
 }
+void default_row_sink(std::string_view, std::string_view message) { warn(message); }
+RowWarningSink& row_sink() {
+  static RowWarningSink current = default_row_sink;
+  return current;
+}
 }  // namespace
+
+RowWarningSink set_row_warning_sink(RowWarningSink new_sink) {
+  return std::exchange(row_sink(), new_sink ? std::move(new_sink) : RowWarningSink(default_row_sink));
+}
+
+void warn_row(std::string_view kind, std::string_view message) { row_sink()(kind, message); }
 
 WarningSink set_warning_sink(WarningSink new_sink) {
   return std::exchange(sink(), new_sink ? std::move(new_sink) : WarningSink(default_sink));

@@ -1,0 +1,51 @@
+#include "momentum/core/number.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+namespace momentum::core {
+
+std::size_t format_double(double value, char* out) {
+  if (std::isnan(value)) {
+    // to_chars would write "-nan" for a negative NaN too; we keep the sign for a bit-exact
+    // round trip of the sign bit, which is all text can carry of a NaN.
+    if (std::signbit(value)) {
+      std::memcpy(out, "-nan", 4);
+      return 4;
+    }
+    std::memcpy(out, "nan", 3);
+    return 3;
+  }
+  auto result = std::to_chars(out, out + 32, value);
+  return static_cast<std::size_t>(result.ptr - out);
+}
+
+std::string exact(double value) {
+  char buffer[40];
+  return std::string(buffer, format_double(value, buffer));
+}
+
+std::optional<double> parse_double(std::string_view field) {
+  while (!field.empty() && (field.front() == ' ' || field.front() == '\t')) field.remove_prefix(1);
+  while (!field.empty() && (field.back() == ' ' || field.back() == '\t' || field.back() == '\r'))
+    field.remove_suffix(1);
+  if (field.empty()) return std::nullopt;
+  if (field.front() == '+') {
+    field.remove_prefix(1);
+    if (field.empty() || field.front() == '-' || field.front() == '+') return std::nullopt;
+  }
+  double value = 0;
+  auto result = std::from_chars(field.data(), field.data() + field.size(), value);
+  if (result.ec == std::errc::result_out_of_range) {
+    // from_chars reports overflow and underflow without a value; follow strtod: +-inf or +-0
+    // for beyond-range magnitudes, so that no finite text is rejected as "not a number".
+    std::string copy(field);
+    return std::strtod(copy.c_str(), nullptr);
+  }
+  if (result.ec != std::errc() || result.ptr != field.data() + field.size()) return std::nullopt;
+  return value;
+}
+
+}  // namespace momentum::core

@@ -1,0 +1,190 @@
+// Files replaced safely: symlinks followed, devices and read-only files refused, the mode kept,
+// no temporary left behind (also when a signal ends the run), and a lock that makes a
+// read-compare-write see the previous holder's write.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "momentum/core/error.hpp"
+#include "momentum/core/file.hpp"
+
+namespace fs = std::filesystem;
+using momentum::core::FileLock;
+using momentum::core::RemoveOnSignal;
+using momentum::core::replace_file;
+using momentum::core::write_target;
+
+namespace {
+
+struct Folder {
+  fs::path path;
+  Folder() {
+    path = fs::path(::testing::TempDir()) / ("momentum_core_file_" + std::to_string(::getpid()) + "_" +
+                                              ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~Folder() { fs::remove_all(path); }
+  // Files in the folder other than those named.
+  std::size_t entries() const { return static_cast<std::size_t>(std::distance(fs::directory_iterator(path), {})); }
+};
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+
+}  // namespace
+
+TEST(ReplaceFile, WritesANewFileWithTheDefaultModeAndLeavesNoTemporary) {
+  Folder dir;
+  const fs::path p = dir.path / "new.json";
+  replace_file(p, "{}\n");
+  EXPECT_EQ(read(p), "{}\n");
+  EXPECT_EQ(fs::status(p).permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+  EXPECT_EQ(dir.entries(), 1u);
+}
+
+TEST(ReplaceFile, KeepsTheModeAndReplacesTheInode) {
+  Folder dir;
+  const fs::path p = dir.path / "arm.json";
+  write(p, "old");
+  ::chmod(p.c_str(), 0640);
+  struct stat before {};
+  ::stat(p.c_str(), &before);
+  replace_file(p, "new");
+  struct stat after {};
+  ::stat(p.c_str(), &after);
+  EXPECT_EQ(read(p), "new");
+  EXPECT_EQ(after.st_mode & 07777, 0640u);
+  EXPECT_NE(after.st_ino, before.st_ino);  // renamed over, not rewritten in place
+  EXPECT_EQ(dir.entries(), 1u);
+}
+
+TEST(ReplaceFile, FollowsSymlinksToTheRealTarget) {
+  Folder dir;
+  fs::create_directories(dir.path / "real");
+  write(dir.path / "real" / "arm.json", "old");
+  fs::create_symlink("real/arm.json", dir.path / "link.json");        // relative
+  fs::create_symlink(dir.path / "link.json", dir.path / "link2.json");  // a link to a link
+  EXPECT_EQ(write_target(dir.path / "link2.json"), dir.path / "real" / "arm.json");
+  replace_file(dir.path / "link2.json", "new");
+  EXPECT_TRUE(fs::is_symlink(dir.path / "link.json"));
+  EXPECT_TRUE(fs::is_symlink(dir.path / "link2.json"));
+  EXPECT_EQ(read(dir.path / "real" / "arm.json"), "new");
+  EXPECT_EQ(dir.entries(), 3u);
+  EXPECT_EQ(static_cast<std::size_t>(std::distance(fs::directory_iterator(dir.path / "real"), {})), 1u);
+}
+
+TEST(ReplaceFile, RefusesDevicesDirectoriesAndLinkLoops) {
+  Folder dir;
+  try {
+    replace_file("/dev/null", "x");
+    FAIL() << "replaced /dev/null";
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), "/dev/null: not a regular file (a character device); not replaced");
+  }
+  struct stat st {};
+  ASSERT_EQ(::stat("/dev/null", &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  EXPECT_THROW(replace_file(dir.path, "x"), momentum::Error);
+  fs::create_symlink("b", dir.path / "a");
+  fs::create_symlink("a", dir.path / "b");
+  EXPECT_THROW(replace_file(dir.path / "a", "x"), momentum::Error);
+  fs::create_symlink("/dev/null", dir.path / "null");
+  EXPECT_THROW(replace_file(dir.path / "null", "x"), momentum::Error);
+  EXPECT_TRUE(fs::is_symlink(dir.path / "null"));
+}
+
+TEST(ReplaceFile, RefusesAReadOnlyFileEvenAsRoot) {
+  Folder dir;
+  const fs::path p = dir.path / "arm.json";
+  write(p, "old");
+  ::chmod(p.c_str(), 0444);
+  try {
+    replace_file(p, "new");
+    FAIL() << "replaced a read-only file";
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": read-only (mode 0444); not replaced");
+  }
+  EXPECT_EQ(read(p), "old");
+  EXPECT_EQ(dir.entries(), 1u);
+}
+
+TEST(RemoveOnSignal, ATemporaryFileDoesNotOutliveSIGTERM) {
+  Folder dir;
+  for (int signal : {SIGTERM, SIGINT}) {
+    const fs::path p = dir.path / ("temp" + std::to_string(signal));
+    write(p, "partial");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      RemoveOnSignal guard(p.string());
+      ::raise(signal);
+      ::_exit(0);  // not reached: the default action ends the process
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFSIGNALED(status));
+    EXPECT_EQ(WTERMSIG(status), signal);
+    EXPECT_FALSE(fs::exists(p));
+  }
+  // Released guards leave the handlers as they were.
+  struct sigaction now {};
+  { RemoveOnSignal guard((dir.path / "x").string()); }
+  ::sigaction(SIGTERM, nullptr, &now);
+  EXPECT_EQ(now.sa_handler, SIG_DFL);
+}
+
+TEST(FileLock, ASecondRunWaitsAndThenSeesTheFirstRunsWrite) {
+  Folder dir;
+  const fs::path p = dir.path / "arm.json";
+  write(p, "first");
+  int go[2], waiting[2], verdict[2];
+  ASSERT_EQ(::pipe(go), 0);
+  ASSERT_EQ(::pipe(waiting), 0);
+  ASSERT_EQ(::pipe(verdict), 0);
+  // Fork before locking: a child holding a copy of the holder's descriptor would hold its lock.
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    char c = 0;
+    if (::read(go[0], &c, 1) != 1) ::_exit(2);
+    // The second run: it must wait, and once it holds the lock read what the first wrote.
+    FileLock second(p, [&](const std::string&) { (void)!::write(waiting[1], "w", 1); });
+    const char ok = read(p) == "second" ? 'y' : 'n';
+    (void)!::write(verdict[1], &ok, 1);
+    ::_exit(0);
+  }
+  auto holder = std::make_unique<FileLock>(p);
+  ASSERT_TRUE(holder->locked());
+  ASSERT_EQ(::write(go[1], "g", 1), 1);
+  char c = 0;
+  ASSERT_EQ(::read(waiting[0], &c, 1), 1);  // the child reports that it waits
+  replace_file(p, "second");                // the first run's write, under its lock
+  holder->release();
+  ASSERT_EQ(::read(verdict[0], &c, 1), 1);
+  EXPECT_EQ(c, 'y');
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status));
+  for (int fd : {go[0], go[1], waiting[0], waiting[1], verdict[0], verdict[1]}) ::close(fd);
+}
+
+TEST(FileLock, ANewFileIsNotLockedAndADeviceIsRefused) {
+  Folder dir;
+  FileLock none(dir.path / "absent.json");
+  EXPECT_FALSE(none.locked());
+  EXPECT_THROW(FileLock("/dev/null"), momentum::Error);
+}

@@ -1,0 +1,250 @@
+// The suite's time-order policy: a row whose time does not fit its neighbours costs that row
+// only; a clock step is kept and marked; memory stays constant.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <random>
+
+#include "momentum/stream/error.hpp"
+#include "momentum/stream/reader.hpp"
+#include "momentum/stream/time_order.hpp"
+
+namespace ms = momentum::stream;
+
+namespace {
+
+struct Outcome {
+  std::vector<double> kept;                // times of the kept rows, in order
+  std::vector<std::uint64_t> kept_at;      // their positions
+  std::vector<ms::TimeMark> marks;
+  std::vector<std::uint64_t> dropped;      // positions of the dropped rows
+  std::vector<ms::TimeFault> faults;
+  std::uint64_t most_held = 0;             // largest number of rows pushed but not yet decided
+};
+
+// Runs the policy over rows (t, i) at positions 1..n; `value` is a second column (the row's
+// index unless given), so that rows with equal times are not exact duplicates.
+Outcome run(const std::vector<double>& times) {
+  Outcome out;
+  ms::TimeOrder order(2, 0, [&](std::uint64_t position, ms::TimeFault fault, const std::string&) {
+    out.dropped.push_back(position);
+    out.faults.push_back(fault);
+  });
+  std::uint64_t pushed = 0;
+  auto drain = [&] {
+    while (const auto* row = order.pop()) {
+      out.kept.push_back(row->values[0]);
+      out.kept_at.push_back(row->position);
+      out.marks.push_back(row->mark);
+    }
+  };
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const double row[2] = {times[i], static_cast<double>(i)};
+    order.push(row, i + 1);
+    ++pushed;
+    drain();
+    out.most_held = std::max<std::uint64_t>(out.most_held, pushed - out.kept.size() - out.dropped.size());
+  }
+  order.finish();
+  drain();
+  EXPECT_EQ(out.kept.size() + out.dropped.size(), times.size());
+  return out;
+}
+
+std::vector<double> regular(std::size_t n, double dt = 0.008, double t0 = 0) {
+  std::vector<double> t(n);
+  for (std::size_t i = 0; i < n; ++i) t[i] = t0 + dt * static_cast<double>(i);
+  return t;
+}
+
+std::size_t count_marks(const Outcome& o, ms::TimeMark mark) {
+  return static_cast<std::size_t>(std::count(o.marks.begin(), o.marks.end(), mark));
+}
+
+}  // namespace
+
+TEST(TimeOrder, ARegularStreamPassesAtOnceAndUnmarked) {
+  const auto t = regular(1000);
+  const Outcome o = run(t);
+  EXPECT_EQ(o.kept, t);
+  EXPECT_TRUE(o.dropped.empty());
+  EXPECT_EQ(count_marks(o, ms::TimeMark::none), t.size());
+  // Only the first rows wait (the start is decided on three rows); then no delay at all.
+  EXPECT_LE(o.most_held, 2u);
+}
+
+TEST(TimeOrder, ALoneCorruptFutureTimeCostsOnlyItsRow) {
+  for (double wild : {1e9, 5.608 + 0.02, -1.0, 0.0, 3.0}) {
+    auto t = regular(1000);
+    t[700] = wild;  // row 701
+    const Outcome o = run(t);
+    EXPECT_EQ(o.dropped, (std::vector<std::uint64_t>{701})) << wild;
+    EXPECT_EQ(o.kept.size(), 999u) << wild;
+    EXPECT_EQ(count_marks(o, ms::TimeMark::clock_step), 0u) << wild;
+    EXPECT_LE(o.most_held, 2u);
+  }
+}
+
+TEST(TimeOrder, TwoConsecutiveCorruptTimesCostTwoRows) {
+  for (auto pair : {std::pair{1e9, 1e9}, std::pair{1e9, 2e9}, std::pair{2e9, 1e9}, std::pair{-5.0, 1e9},
+                    std::pair{0.0, 0.0}}) {
+    auto t = regular(2500);
+    t[700] = pair.first;
+    t[701] = pair.second;
+    const Outcome o = run(t);
+    EXPECT_EQ(o.dropped, (std::vector<std::uint64_t>{701, 702})) << pair.first << " " << pair.second;
+    EXPECT_EQ(count_marks(o, ms::TimeMark::clock_step), 0u);
+  }
+}
+
+TEST(TimeOrder, NaNAndInfiniteTimesAreDroppedAlone) {
+  auto t = regular(100);
+  t[10] = std::numeric_limits<double>::quiet_NaN();
+  t[50] = std::numeric_limits<double>::infinity();
+  const Outcome o = run(t);
+  EXPECT_EQ(o.dropped, (std::vector<std::uint64_t>{11, 51}));
+  EXPECT_EQ(o.faults, (std::vector<ms::TimeFault>{ms::TimeFault::not_finite, ms::TimeFault::not_finite}));
+}
+
+TEST(TimeOrder, AClockStepBackIsKeptAndMarked) {
+  auto t = regular(1000, 0.008, 100);
+  for (std::size_t i = 400; i < t.size(); ++i) t[i] -= 10;  // the host clock stepped back 10 s
+  const Outcome o = run(t);
+  EXPECT_TRUE(o.dropped.empty());
+  EXPECT_EQ(o.kept, t);
+  ASSERT_EQ(count_marks(o, ms::TimeMark::clock_step), 1u);
+  EXPECT_EQ(o.marks[400], ms::TimeMark::clock_step);
+}
+
+TEST(TimeOrder, AClockStepForwardIsAGap) {
+  auto t = regular(1000);
+  for (std::size_t i = 400; i < t.size(); ++i) t[i] += 10;
+  const Outcome o = run(t);
+  EXPECT_TRUE(o.dropped.empty());
+  EXPECT_EQ(o.kept, t);
+  EXPECT_EQ(o.marks[400], ms::TimeMark::gap);
+  EXPECT_EQ(count_marks(o, ms::TimeMark::gap), 1u);
+}
+
+TEST(TimeOrder, LostSamplesAreAGapAndCostNothing) {
+  auto t = regular(100);
+  t.erase(t.begin() + 40, t.begin() + 43);  // three samples lost
+  const Outcome o = run(t);
+  EXPECT_EQ(o.kept, t);
+  EXPECT_EQ(o.marks[40], ms::TimeMark::gap);
+}
+
+TEST(TimeOrder, TwoLostSampleGapsInARowLoseNothing) {
+  auto t = regular(100);
+  t.erase(t.begin() + 41);  // one sample lost ...
+  t.erase(t.begin() + 42);  // ... and the one after the next
+  const Outcome o = run(t);
+  EXPECT_TRUE(o.dropped.empty());
+  EXPECT_EQ(o.kept, t);
+}
+
+TEST(TimeOrder, ARowWrittenEarlyAfterLostSamplesLosesOnlyItself) {
+  // 5 is lost; 9 was written before 6 and 8 (8 is lost too).
+  const Outcome o = run({0, 1, 2, 3, 4, 6, 9, 7, 10, 11, 12, 13});
+  EXPECT_EQ(o.kept, (std::vector<double>{0, 1, 2, 3, 4, 6, 7, 10, 11, 12, 13}));
+  EXPECT_EQ(o.dropped, (std::vector<std::uint64_t>{7}));
+}
+
+TEST(TimeOrder, ACorruptFirstTimeDoesNotBecomeTheOrigin) {
+  for (double wild : {1e9, -1e9, 7.0}) {
+    auto t = regular(200, 0.008, 1.0);
+    t[0] = wild;
+    const Outcome o = run(t);
+    EXPECT_EQ(o.dropped, (std::vector<std::uint64_t>{1})) << wild;
+    EXPECT_EQ(o.kept.front(), t[1]);
+  }
+  auto t = regular(200, 0.008, 1.0);
+  t[1] = 1e9;  // the second row
+  const Outcome o = run(t);
+  EXPECT_LE(o.dropped.size(), 2u);
+  EXPECT_EQ(o.kept.back(), t.back());
+  EXPECT_GE(o.kept.size(), 198u);
+}
+
+TEST(TimeOrder, ARowWrittenEarlyLosesOnlyItself) {
+  const Outcome o = run({1, 2, 3, 7, 4, 5, 6, 8, 9, 10, 11, 12});
+  EXPECT_EQ(o.kept, (std::vector<double>{1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12}));
+  EXPECT_EQ(o.dropped, (std::vector<std::uint64_t>{4}));
+}
+
+TEST(TimeOrder, ARepeatedTimeAndAnExactDuplicateAreDropped) {
+  ms::TimeOrder order(2, 0, nullptr);
+  std::vector<double> kept;
+  const double rows[][2] = {{0, 0}, {1, 1}, {2, 2}, {2, 2}, {2, 5}, {3, 3}, {4, 4}};
+  for (const auto& row : rows) {
+    order.push(row, 0);
+    while (const auto* r = order.pop()) kept.push_back(r->values[1]);
+  }
+  order.finish();
+  while (const auto* r = order.pop()) kept.push_back(r->values[1]);
+  EXPECT_EQ(kept, (std::vector<double>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(order.summary().duplicates, 1u);
+  EXPECT_EQ(order.summary().out_of_order, 1u);
+}
+
+TEST(TimeOrder, AChangeOfRateLosesNoRow) {
+  auto t = regular(300, 0.001);
+  for (int i = 1; i <= 100; ++i) t.push_back(t.back() + 0.1);
+  const Outcome o = run(t);
+  EXPECT_TRUE(o.dropped.empty());
+  EXPECT_EQ(o.kept, t);
+  EXPECT_NEAR(0.1, [&] {
+    ms::TimeOrder order(1, 0, nullptr);
+    for (double x : t) order.push(&x, 0);
+    return order.median_dt();
+  }(), 1e-12);
+}
+
+TEST(TimeOrder, GarbageTimesHoldAtMostThreeRows) {
+  std::mt19937_64 random(7);
+  std::uniform_real_distribution<double> any(-1e6, 1e6);
+  std::vector<double> t(20000);
+  for (auto& x : t) x = any(random);
+  const Outcome o = run(t);
+  EXPECT_LE(o.most_held, 3u);
+  // Times kept are each after the one before or a clock step.
+  for (std::size_t i = 1; i < o.kept.size(); ++i)
+    if (o.marks[i] != ms::TimeMark::clock_step) {
+      EXPECT_GT(o.kept[i], o.kept[i - 1]);
+    }
+}
+
+TEST(TimeOrder, TheReaderAppliesItAndNamesTheLine) {
+  const std::string path = ::testing::TempDir() + "/time_order_" + std::to_string(::getpid()) + ".csv";
+  {
+    std::ofstream out(path);
+    out << "t,x\n";
+    for (int i = 0; i < 20; ++i) out << (i == 7 ? 1e9 : 0.01 * i) << "," << i << "\n";
+  }
+  std::vector<std::string> warnings;
+  auto previous = momentum::set_warning_sink([&](std::string_view m) { warnings.emplace_back(m); });
+  auto in = ms::Reader::open(path);
+  std::vector<std::string> where;
+  while (in->next()) where.push_back(in->where());
+  momentum::set_warning_sink(previous);
+  EXPECT_EQ(where.size(), 19u);
+  EXPECT_EQ(where[7], path + ":10");  // the row after the dropped one (line 9)
+  EXPECT_EQ(in->rows_skipped(), 1u);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], path + ":9: time out of order: t=1e+09 after t=0.06, next t=0.08: skipped");
+
+  ms::ReaderOptions strict;
+  strict.strict = true;
+  auto again = ms::Reader::open(path, strict);
+  EXPECT_THROW(while (again->next()) {}, momentum::Error);
+  ms::ReaderOptions raw;
+  raw.time_order = false;
+  auto as_written = ms::Reader::open(path, raw);
+  int rows = 0;
+  while (as_written->next()) ++rows;
+  EXPECT_EQ(rows, 20);
+  std::remove(path.c_str());
+}
