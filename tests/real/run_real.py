@@ -17,7 +17,7 @@ delay is under 150 ms (issue: real robots).
 import argparse, csv, os, statistics, subprocess, sys
 
 BEFORE, AFTER, SETTLE = 0.5, 2.0, 1.0
-FIT_OPTIONS = ["--bounds", "sigma2=1e-3:60,tau_c=1e-3:40,tau_s=1e-3:40"]
+FIT_OPTIONS = []  # the search box comes from the robot and the data (mo-lugre-fit(1))
 
 
 def read_rows(path):
