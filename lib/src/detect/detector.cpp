@@ -49,12 +49,12 @@ std::span<const Event> Detector::step(double t, const double* x, const double* d
   bool arm_still = have_velocity_;
   if (have_velocity_)
     for (std::size_t j = 0; j < joints_.size(); ++j) arm_still = arm_still && std::fabs(dq[j]) < thresholds_.rest_rule.velocity;
+  const double* judged_at_rest = thresholds_.rest_raw && x_rest ? x_rest : x;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     Joint& J = joints_[j];
     const JointThreshold& T = thresholds_.joints[j];
     const double v = have_velocity_ ? dq[j] : kNaN;
     MotionState state = MotionState::moving;
-    const double* judged_at_rest = thresholds_.rest_raw && x_rest ? x_rest : x;
     if (have_velocity_ && (T.rest || T.slow)) state = J.tracker.update(t, v, judged_at_rest[j], !(open_ && J.fired), arm_still);
     // A state without a threshold of its own falls to the next rule down, as in calibration.
     if (state == MotionState::rest && !T.rest) state = MotionState::slow;

@@ -1,8 +1,9 @@
 #pragma once
 // The detector state machine of mo-detect: joints fire when their residual stays over its
-// threshold, events open on the first firing and close when every joint is quiet again, and
-// the collided link is the most distal joint that fired (paper section 4, fault signature
-// eta = [1..1, 0..0]). Semantics in mo-detect(1).
+// threshold, events open on the first firing and close when every joint is back in its band,
+// a new contact while one is open is an event of its own (re-arming), and the collided link is
+// the most distal joint that fired (paper section 4, fault signature eta = [1..1, 0..0]).
+// Semantics in mo-detect(1).
 
 #include <cmath>
 #include <cstdint>
