@@ -23,7 +23,7 @@ phase "normal tests"
 scripts/setup.sh build-sanitize -DCMAKE_CXX_COMPILER=clang++-14 -DMOMENTUM_SANITIZE=ON -DMOMENTUM_WERROR=ON \
   -DMOMENTUM_BUILD_BENCHMARKS=OFF -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG"
 phase "sanitizer build"
-ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp:print_suppressions=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-sanitize -j"$jobs" --output-on-failure -LE slow
 phase "sanitizer tests"
 
