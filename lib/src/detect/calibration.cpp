@@ -507,7 +507,10 @@ std::string format_calibration_report(const CalibrationResult& r) {
       const ParetoTail& p = b.tail.tail;
       out += "# joint " + std::to_string(j + 1) + " " + state + " tail: " + std::to_string(p.peaks) + " peaks over " +
              fmt(p.u0, "%.4g") + " Nm in " + fmt(b.tail.seconds / 3600, "%.3g") + " h (" + fmt(p.rate, "%.3g") +
-             " per h), sigma " + fmt(p.sigma, "%.3g") + " Nm, xi " + fmt(p.xi, "%.3g") + "; threshold from " +
+             " per h), sigma " + fmt(p.sigma, "%.3g") + " Nm, " +
+             (p.xi == 0 ? "exponential" : "xi " + fmt(p.xi, "%.3g")) +
+             (std::isnan(b.tail.shape) || p.xi == b.tail.shape ? "" : " (fitted shape xi " + fmt(b.tail.shape, "%.3g") + ")") +
+             "; threshold from " +
              (b.from_tail ? "the tail" : "the largest peak + margin") + "\n";
     };
     if (r.thresholds.joints[j].rest && !r.thresholds.joints[j].rest_absolute && !c.rest_drift_costs.empty()) {

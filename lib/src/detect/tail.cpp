@@ -135,12 +135,18 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
   fit.seconds = seconds;
   std::vector<TailPeak> peaks = largest;  // largest first
   std::uint64_t total = std::max<std::uint64_t>(total_peaks, peaks.size());
-  // Exceedances used: a fifth of all peaks (the tail, not the body), within what was kept.
+  // Exceedances used, within what was kept: for the exponential tail the square root of all
+  // peaks, the usual balance of bias and variance in the exponential domain; more would reach
+  // down into the body, and minutes of motion mix quiet phases, whose many small peaks would set
+  // the scale, with busy ones, whose few large peaks are the tail that false alarms come from.
+  // A fitted shape follows the body further: the top fifth.
   auto exceedances = [&](std::size_t available, std::uint64_t all) {
-    const auto wanted = std::max<std::uint64_t>(static_cast<std::uint64_t>(options.min_peaks), all / 5);
+    const auto root = static_cast<std::uint64_t>(std::llround(std::sqrt(static_cast<double>(all))));
+    const auto wanted =
+        std::max<std::uint64_t>(static_cast<std::uint64_t>(options.min_peaks), options.fitted_shape ? all / 5 : root);
     return static_cast<std::size_t>(std::min<std::uint64_t>(available - 1, wanted));
   };
-  auto fit_below = [&](std::size_t first, ParetoTail* tail) {
+  auto fit_below = [&](std::size_t first, ParetoTail* tail, double* shape = nullptr) {
     // The tail of peaks[first..]: base level the (k+1)-th of them.
     const std::size_t available = peaks.size() - first;
     if (available < static_cast<std::size_t>(options.min_peaks) + 1) return false;
@@ -148,9 +154,10 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
     const double u0 = peaks[first + k].m;
     std::vector<double> y;
     for (std::size_t i = first + k; i-- > first;) y.push_back(peaks[i].m - u0);  // ascending
-    // The shape is not estimable from a handful of peaks: an exponential tail then, which
-    // covers the light tails of noise (and is conservative for them).
-    const Moments m = static_cast<int>(k) < options.min_shape_peaks ? exponential_moments(y) : pareto_moments(y, options);
+    // The shape is not estimable from a handful of peaks.
+    const bool estimable = static_cast<int>(k) >= options.min_shape_peaks;
+    if (shape) *shape = estimable ? pareto_moments(y, options).xi : NAN;
+    const Moments m = options.fitted_shape && estimable ? pareto_moments(y, options) : exponential_moments(y);
     if (!(m.sigma > 0)) return false;
     *tail = ParetoTail{u0, m.sigma, m.xi, static_cast<double>(k) / (seconds / 3600), static_cast<int>(k)};
     return true;
@@ -178,7 +185,7 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
   peaks.erase(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(removed));
   total -= removed;
   fit.largest_kept = peaks.front().m;
-  fit.ok = fit_below(0, &fit.tail);
+  fit.ok = fit_below(0, &fit.tail, &fit.shape);
   if (!fit.ok) fit.why = "too few peaks once the outliers are removed";
   return fit;
 }

@@ -11,6 +11,7 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 
+#include "momentum/core/statistics.hpp"
 #include "momentum/dynfit/regressor.hpp"
 #include "momentum/model/inertial_corrections.hpp"
 #include "momentum/observer/filter.hpp"
@@ -315,9 +316,7 @@ std::vector<std::unique_ptr<Identifier>> Identifier::replay_kept(Eigen::VectorXd
   Eigen::VectorXd& noise = *noise_level;
   noise = Eigen::VectorXd::Zero(n_);
   if (kept_.size() < 3) return copies;
-  // The noise level per joint: white noise of deviation s has second differences of
-  // deviation s sqrt(6); the median absolute value is robust to the motion's own curvature
-  // and to the odd outlier.
+  // The noise level per joint, from second differences of the measured velocity.
   for (int j = 0; j < n_; ++j) {
     std::vector<double> d2;
     for (std::size_t k = 1; k + 1 < kept_.size(); ++k) {
@@ -325,10 +324,7 @@ std::vector<std::unique_ptr<Identifier>> Identifier::replay_kept(Eigen::VectorXd
       const double d = kept_[k + 1].dq[j] - 2 * kept_[k].dq[j] + kept_[k - 1].dq[j];
       if (std::isfinite(d)) d2.push_back(std::abs(d));
     }
-    if (d2.empty()) continue;
-    auto mid = d2.begin() + static_cast<std::ptrdiff_t>(d2.size() / 2);
-    std::nth_element(d2.begin(), mid, d2.end());
-    noise[j] = *mid / 0.6744897501960817 / std::sqrt(6.0);
+    noise[j] = core::white_noise_from_second_differences(d2);
   }
   if (!(noise.maxCoeff() > 0)) return copies;  // exact velocities: nothing to double
   IdentifyOptions copy_options = options_;

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "momentum/core/statistics.hpp"
+
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -70,10 +72,7 @@ double estimate_velocity_noise(const JointSeries& s) {
   d2.reserve(s.size() - 2);
   for (std::size_t k = 1; k + 1 < s.size(); ++k)
     if (s.restart[k] < 2 && s.restart[k + 1] < 2) d2.push_back(std::abs(s.dq[k + 1] - 2 * s.dq[k] + s.dq[k - 1]));
-  if (d2.empty()) return 0;
-  auto mid = d2.begin() + static_cast<std::ptrdiff_t>(d2.size() / 2);
-  std::nth_element(d2.begin(), mid, d2.end());
-  return *mid / 0.6744897501960817 / std::sqrt(6.0);
+  return core::white_noise_from_second_differences(d2);
 }
 
 std::size_t exclude_slow_samples(JointSeries& s, double min_speed, double settle) {

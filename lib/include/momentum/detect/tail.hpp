@@ -111,9 +111,12 @@ struct TailFitOptions {
   int max_outliers = 5;
   // Fewest peaks over the base level for a fit.
   int min_peaks = 4;
-  // With fewer peaks over the base level than this the shape is not estimated: the tail is
-  // exponential (xi = 0), the neutral case between bounded and heavy tails.
+  // With fewer peaks over the base level than this the shape is not estimated (TailFit::shape
+  // stays NaN).
   int min_shape_peaks = 30;
+  // Levels and rates from the fitted shape instead of the exponential tail (see above); for
+  // data known to follow a generalised Pareto tail.
+  bool fitted_shape = false;
   bool IsValid(std::string* why) const;
 };
 
@@ -121,7 +124,8 @@ struct TailFitOptions {
 struct TailFit {
   bool ok = false;          // false: too few peaks (see why)
   std::string why;          // when !ok
-  ParetoTail tail;          // when ok
+  ParetoTail tail;          // when ok: exponential (xi = 0) unless options.fitted_shape
+  double shape = NAN;       // the shape xi fitted to the same peaks (NaN: too few to estimate)
   std::vector<TailPeak> outliers;  // peaks removed as outliers, largest first
   double largest_kept = 0;  // the largest peak that is not an outlier (0 when none)
   double seconds = 0;       // exposure, s
@@ -130,7 +134,8 @@ struct TailFit {
 // Fits a generalised Pareto tail to the largest peaks (probability-weighted moments, Hosking and
 // Wallis 1987), after removing outliers. `total_peaks`: the peaks found in `seconds` of
 // exposure, of which `largest` are the top ones, largest first. The base level is the
-// (k+1)-th largest peak with k = min(kept - 1, max(min_peaks, total/5)); fewer than
+// (k+1)-th largest peak with k = min(kept - 1, max(min_peaks, sqrt(total))), or total/5 for a
+// fitted shape; fewer than
 // min_peaks + 1 peaks in all: no fit.
 TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks, double seconds,
                  const TailFitOptions& options = {});
