@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
   options.filter_gain = 10.0;
   app.add_flag("--update", update, "write the corrections into the profile (-p) in place");
   app.add_option("-o,--output", output, "write the updated profile to FILE instead (- for stdout)")->type_name("FILE");
-  app.add_flag("--force", force, "write even when the correction is worse than the profile's current one");
+  app.add_flag("--force", force, "write even a failed fit, or one worse than the profile's current correction");
   app.add_option("--report", report_path, "write the JSON report to FILE (- for stdout)")->type_name("FILE");
   app.add_flag("--gravity-only", options.gravity_only,
                "fit only masses and first moments (m, m c): for slow motion that excites little else");
@@ -54,6 +54,10 @@ int main(int argc, char** argv) {
   app.add_option("--holdout-segment", options.holdout_segment, "length of the validation segments, s (default 10)")
       ->type_name("SECONDS");
   app.add_option("--holdout-every", options.holdout_every, "hold out every N-th segment, 0 none (default 5)")->type_name("N");
+  dynfit::FitLimits limits;
+  app.add_option("--max-projection-shift", limits.max_projection_shift,
+                 "a failed fit when physical consistency moves an identified combination by more standard errors (3)")
+      ->type_name("SE");
   app.add_option("--velocity-noise-draws", options.velocity_noise_draws,
                  "fits with the velocity noise doubled, for its bias in the uncertainty; 0 none (default 2)")
       ->type_name("N");
@@ -79,7 +83,7 @@ int main(int argc, char** argv) {
     options.fit_friction = !no_friction;
     options.seed = tool.seed();
     std::string why;
-    if (!options.IsValid(&why)) throw cli::UsageError(why);
+    if (!options.IsValid(&why) || !limits.IsValid(&why)) throw cli::UsageError(why);
 
     dynfit::Identifier identifier(nominal, options);
     std::vector<std::string> inputs = tool.inputs();
@@ -103,6 +107,13 @@ int main(int argc, char** argv) {
     const std::string destination = update ? profile_name : output;
     if (destination.empty()) {
       report.outcome = "profile not written (use --update or -o)";
+    } else if (const auto failures = dynfit::fit_failures(report.summary, limits);
+               !failures.empty() && !force) {
+      failure = "failed fit: " + failures.front();
+      for (std::size_t k = 1; k < failures.size(); ++k) failure += "; " + failures[k];
+      failure += "; profile not written (--force to write anyway)";
+      report.outcome = "refused: " + failure;
+      status = cli::kFailure;
     } else if (dynfit::worse_than_current(report.summary) && !force) {
       failure = "the new correction explains the held-out data worse than the profile's current one; "
                 "profile not written (--force to write anyway)";

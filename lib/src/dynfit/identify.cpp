@@ -664,6 +664,7 @@ IdentifySummary Identifier::solve_one(const Eigen::VectorXd* current) const {
       // The inertias about the centres of mass are nominal (physical), so only a mass that is
       // not positive can make a body unphysical; such a body keeps its nominal parameters.
       for (int k : unphysical) s.delta.segment<kBodyParameters>(body_offset(k)).setZero();
+      s.bodies_reset = static_cast<int>(unphysical.size());
       s.projections.push_back(names + ": identified mass not positive; the body keeps its nominal parameters");
     } else {
       // Selected columns are all 10 nq parameters here.
@@ -679,10 +680,11 @@ IdentifySummary Identifier::solve_one(const Eigen::VectorXd* current) const {
         const double moved = base.direction.dot(s.delta - s.delta_unprojected);
         if (base.standard_error > 0) worst = std::max(worst, std::abs(moved) / base.standard_error);
       }
+      s.projection_shift = worst;
       char text[160];
       std::snprintf(text, sizeof text,
                     ": minimum-norm correction not physical; nearest physical correction taken "
-                    "(%d Newton steps; identified combinations moved by at most %.2g standard errors)",
+                    "(%d Newton steps; identified combinations moved by at most %.3g standard errors)",
                     steps, worst);
       s.projections.push_back(names + text);
     }

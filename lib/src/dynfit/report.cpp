@@ -114,6 +114,46 @@ bool worse_than_current(const IdentifySummary& s) {
   return s.rms_after.squaredNorm() > s.rms_current.squaredNorm() * (1 + 1e-9);
 }
 
+bool FitLimits::IsValid(std::string* why) const {
+  if (max_projection_shift > 0 && max_negative_friction > 0) return true;
+  if (why) *why = "fit limits must be > 0";
+  return false;
+}
+
+std::vector<std::string> fit_failures(const IdentifySummary& s, const FitLimits& limits) {
+  std::vector<std::string> out;
+  char buffer[256];
+  if (s.projection_shift > limits.max_projection_shift) {
+    std::snprintf(buffer, sizeof buffer,
+                  "physical consistency moved identified combinations by %.3g standard errors (limit %g): "
+                  "the data ask for bodies no physics allows",
+                  s.projection_shift, limits.max_projection_shift);
+    out.push_back(buffer);
+  }
+  if (s.bodies_reset > 0)
+    out.push_back(std::to_string(s.bodies_reset) + " bodies identified with a mass that is not positive");
+  for (int j = 0; j < s.coulomb.size(); ++j) {
+    const std::string name = "friction joint " + std::to_string(j + 1);
+    auto negative = [&](double value, double se, const char* what, const char* unit) {
+      if (!(value < -limits.max_negative_friction * se)) return;
+      std::snprintf(buffer, sizeof buffer, "%s: %s %.4g %s is negative (%.3g standard errors)", name.c_str(),
+                    what, value, unit, se > 0 ? -value / se : INFINITY);
+      out.push_back(buffer);
+    };
+    if (s.fit_friction) {
+      negative(s.coulomb[j], s.coulomb_se[j], "Coulomb", "Nm");
+      negative(s.viscous[j], s.viscous_se[j], "viscous", "Nm s/rad");
+    }
+  }
+  if (s.rms_after.size() > 0 && s.rms_after.size() == s.rms_before.size() &&
+      s.rms_after.squaredNorm() > s.rms_before.squaredNorm() * (1 + 1e-9)) {
+    std::snprintf(buffer, sizeof buffer, "the corrected model explains the %s data worse than the nominal one",
+                  s.held_out ? "held-out" : "fitting");
+    out.push_back(buffer);
+  }
+  return out;
+}
+
 std::string report_text(const Report& report) {
   const IdentifySummary& s = report.summary;
   std::string out;

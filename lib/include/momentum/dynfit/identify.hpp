@@ -137,6 +137,13 @@ struct IdentifySummary {
   Eigen::VectorXd coulomb, viscous, coulomb_se, viscous_se;
   // Bodies whose estimate was not physical, and what was done.
   std::vector<std::string> projections;
+  // How far physical consistency moved the identified combinations, in their standard errors
+  // (the largest; 0 without a projection). Far means the data ask for a body no physics allows:
+  // a sign or a torque constant wrong, or friction the model cannot follow.
+  double projection_shift = 0;
+  // Bodies that kept their nominal parameters for an identified mass that was not positive
+  // (gravity-only fits).
+  int bodies_reset = 0;
   // RMS per joint of the filtered equation error, Nm: before = nominal model with friction
   // fitted alone; after = corrected model with the joint fit; current = a correction passed to
   // solve() (e.g. the profile's) with friction fitted alone. On held-out data when there is

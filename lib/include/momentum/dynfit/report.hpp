@@ -46,6 +46,23 @@ nlohmann::json report_json(const Report& report);
 // (sum over joints of the mean squares, beyond a relative 1e-9).
 bool worse_than_current(const IdentifySummary& summary);
 
+// Limits past which a correction is a failed fit rather than a model of the robot.
+struct FitLimits {
+  // Physical consistency may move an identified combination by at most this many of its
+  // standard errors (> 0): beyond, the data contradict physics.
+  double max_projection_shift = 3;
+  // Coulomb or viscous friction below zero by more than this many standard errors (> 0) is
+  // friction that drives the joint: the torque's sign or the model is wrong.
+  double max_negative_friction = 3;
+  bool IsValid(std::string* why) const;
+};
+
+// Why the fit failed, one reason per entry (empty: it did not): a projection beyond the limit,
+// a body that kept its nominal parameters for a mass not positive, negative friction, or a
+// corrected model that explains the held-out data worse than the nominal one. A failed fit is
+// not written to a profile unless forced.
+std::vector<std::string> fit_failures(const IdentifySummary& summary, const FitLimits& limits = {});
+
 // Fit metrics stored with the correction in the profile (and in its provenance).
 nlohmann::json fit_details(const Report& report);
 
