@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
   app.add_option("--holdout-every", options.holdout_every, "hold out every N-th segment, 0 none (default 5)")->type_name("N");
   dynfit::FitLimits limits;
   app.add_option("--max-projection-shift", limits.max_projection_shift,
-                 "a failed fit when physical consistency moves an identified combination by more standard errors (3)")
+                 "a failed fit when physical consistency moves an identified combination by more standard errors (8)")
       ->type_name("SE");
   app.add_option("--velocity-noise-draws", options.velocity_noise_draws,
                  "fits with the velocity noise doubled, for its bias in the uncertainty; 0 none (default 2)")

@@ -49,8 +49,10 @@ bool worse_than_current(const IdentifySummary& summary);
 // Limits past which a correction is a failed fit rather than a model of the robot.
 struct FitLimits {
   // Physical consistency may move an identified combination by at most this many of its
-  // standard errors (> 0): beyond, the data contradict physics.
-  double max_projection_shift = 3;
+  // standard errors (> 0): beyond, the data contradict physics. Not 3: the standard errors
+  // leave out model error (Coulomb + viscous against the joints' real friction), and a sound
+  // fit of two minutes of the simulated arm moves by 4; a current of the wrong sign by 10.
+  double max_projection_shift = 8;
   // Coulomb or viscous friction below zero by more than this many standard errors (> 0) is
   // friction that drives the joint: the torque's sign or the model is wrong.
   double max_negative_friction = 3;
