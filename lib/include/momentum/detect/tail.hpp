@@ -135,8 +135,7 @@ struct TailFit {
 // Wallis 1987), after removing outliers. `total_peaks`: the peaks found in `seconds` of
 // exposure, of which `largest` are the top ones, largest first. The base level is the
 // (k+1)-th largest peak with k = min(kept - 1, max(min_peaks, sqrt(total))), or total/5 for a
-// fitted shape; fewer than
-// min_peaks + 1 peaks in all: no fit.
+// fitted shape; fewer than min_peaks + 1 peaks in all: no fit.
 TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks, double seconds,
                  const TailFitOptions& options = {});
 
