@@ -156,8 +156,9 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
     for (std::size_t i = first + k; i-- > first;) y.push_back(peaks[i].m - u0);  // ascending
     // The shape is not estimable from a handful of peaks.
     const bool estimable = static_cast<int>(k) >= options.min_shape_peaks;
-    if (shape) *shape = estimable ? pareto_moments(y, options).xi : NAN;
-    const Moments m = options.fitted_shape && estimable ? pareto_moments(y, options) : exponential_moments(y);
+    const Moments fitted = estimable && (shape || options.fitted_shape) ? pareto_moments(y, options) : Moments{0, 0};
+    if (shape) *shape = estimable ? fitted.xi : NAN;
+    const Moments m = options.fitted_shape && estimable ? fitted : exponential_moments(y);
     if (!(m.sigma > 0)) return false;
     *tail = ParetoTail{u0, m.sigma, m.xi, static_cast<double>(k) / (seconds / 3600), static_cast<int>(k)};
     return true;
