@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   tool.app().add_option("events", events_path, "event file (mo-detect's, or CSV with t_detect,link); - or none: stdin")->type_name("FILE");
   tool.app().add_option("--truth", truth_path, "ground truth from mo-sim --truth")->type_name("FILE")->required();
   tool.app().add_option("--window", options.window, "seconds after onset within which a detection counts")->type_name("S")->capture_default_str();
+  tool.app().add_option("--min-torque", options.min_torque, "count apart the contacts below this joint torque on every joint")->type_name("NM")->capture_default_str();
   tool.app().add_option("--duration", duration, "length of the run (default: the truth file's)")->type_name("S");
   tool.app().add_flag("--json", json, "write the score as JSON");
   tool.app().add_flag("--list", list, "list every contact and false alarm");

@@ -206,6 +206,10 @@ bool ScoreOptions::IsValid(std::string* why) const {
     if (why) *why = "window must be a positive number of seconds";
     return false;
   }
+  if (!(std::isfinite(min_torque) && min_torque >= 0)) {
+    if (why) *why = "min torque must be a number of Nm >= 0";
+    return false;
+  }
   if (duration && !(std::isfinite(*duration) && *duration > 0)) {
     if (why) *why = "duration must be a positive number of seconds";
     return false;
@@ -228,6 +232,7 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
   if (!options.IsValid(&why)) throw Error(why);
   Score s;
   s.window = options.window;
+  s.min_torque = options.min_torque;
   s.duration = options.duration ? options.duration : truth.duration;
   s.contacts = static_cast<int>(truth.contacts.size());
   s.events = static_cast<int>(detections.size());
@@ -274,6 +279,9 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     LinkScore& l = by_link[o.contact.link];
     l.link = o.contact.link;
     ++l.contacts;
+    const bool felt = !(o.contact.peak_torque < options.min_torque);  // NaN: unknown, so felt
+    s.felt += felt;
+    s.felt_detected += felt && o.detected;
     if (!o.detected) continue;
     ++s.detected;
     ++l.detected;
@@ -318,6 +326,10 @@ std::string format_table(const Score& s, bool list) {
   line("detected", std::to_string(s.detected) + " of " + std::to_string(s.contacts) + " (" +
                        percent(s.detected, s.contacts) + ")");
   line("missed", std::to_string(s.missed));
+  if (s.min_torque > 0)
+    line("felt", std::to_string(s.felt_detected) + " of " + std::to_string(s.felt) + " detected (" +
+                     percent(s.felt_detected, s.felt) + "); " + std::to_string(s.contacts - s.felt) +
+                     " below " + fixed(s.min_torque, 1) + " Nm on every joint");
   std::string fa = std::to_string(s.false_alarms);
   if (s.false_alarms_per_hour)
     fa += " (" + fixed(*s.false_alarms_per_hour, 2) + " per hour over " + fixed(*s.collision_free / 3600.0, 3) +
@@ -352,7 +364,10 @@ std::string format_table(const Score& s, bool list) {
     for (const auto& o : s.outcomes) {
       std::string text = "contact t " + fixed(o.contact.t_onset, 3) + " link " + std::to_string(o.contact.link);
       if (std::isfinite(o.contact.peak_force)) text += " " + fixed(o.contact.peak_force, 1) + " N";
-      if (std::isfinite(o.contact.peak_torque)) text += " (joints up to " + fixed(o.contact.peak_torque, 1) + " Nm)";
+      if (std::isfinite(o.contact.peak_torque)) {
+        text += " (joints up to " + fixed(o.contact.peak_torque, 1) + " Nm";
+        text += o.contact.peak_torque < s.min_torque ? ", unfelt)" : ")";
+      }
       if (o.contact.clamp) text += " clamp";
       if (o.detected) {
         text += ": detected after " + ms(o.delay) + " ms, link " + std::to_string(o.reported_link) +
@@ -376,6 +391,9 @@ nlohmann::json to_json(const Score& s) {
   j["contacts"] = s.contacts;
   j["detected"] = s.detected;
   j["missed"] = s.missed;
+  j["min_torque_nm"] = s.min_torque;
+  j["felt"] = s.felt;
+  j["felt_detected"] = s.felt_detected;
   j["detection_rate"] = s.contacts ? nlohmann::json(double(s.detected) / s.contacts) : nlohmann::json(nullptr);
   j["events"] = s.events;
   j["false_alarms"] = s.false_alarms;

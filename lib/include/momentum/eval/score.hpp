@@ -64,6 +64,11 @@ Truth read_truth(const std::string& path);
 struct ScoreOptions {
   double window = 0.5;               // s after onset within which a detection counts, > 0
   std::optional<double> duration;    // s; overrides the truth file's
+  // Nm, >= 0. A contact whose largest peak joint torque (tau_peak<j>) stays below this could not
+  // move any residual above the noise: it is still scored (a miss is a miss), and also counted
+  // apart as unfelt, so that a detector is judged on the contacts a joint could feel. 0: off.
+  // Contacts without tau_peak columns are always felt.
+  double min_torque = 0;
   bool IsValid(std::string* why) const;
 };
 
@@ -92,6 +97,8 @@ struct Score {
   double window = 0;
   std::optional<double> duration;           // s, when known
   int contacts = 0, detected = 0, missed = 0;
+  double min_torque = 0;                    // Nm, the options' (0: no contact is set apart)
+  int felt = 0, felt_detected = 0;          // contacts at or above min_torque, and of them detected
   int events = 0, false_alarms = 0, repeats = 0, late = 0;
   std::optional<double> collision_free;     // s, when the duration is known
   std::optional<double> false_alarms_per_hour;
