@@ -21,9 +21,42 @@
 #     in place finds there, and no threshold may grow by more than --max-increase percent;
 #  6. installs the candidate by renaming it over the profile, after a dated backup
 #     (--backups, the newest --keep kept).
-# Exit status: 0 when the new profile was installed or the old one was kept as at least as
-# good; 1 when the night failed or the candidate was refused (the old profile stays; see the
-# log); 2 on a usage error.
+# Exit status: 0 when the new profile was installed (or would be, with --dry-run); 1 when the
+# night failed, had nothing to go on, or the candidate was refused (the old profile stays; see
+# the log); 2 on a usage error.
+#
+# With --json FILE (- for standard output), every run but a usage error also writes exactly one
+# JSON line, appended to FILE (a fleet's results are `jq` over these lines; see fleet/), e.g.
+#   {"robot": "arm", "profile": "/etc/momentum/arm.json", "day": "2024-05-17", "logs": 4,
+#    "outcome": "refused", "reason": "the candidate raises 1 events on collision-free logs",
+#    "exit_status": 1, "profile_version": {...}, "thresholds_before": {...},
+#    "thresholds_after": {...}, "started": "...Z", "finished": "...Z", "duration_s": 41.2, ...}
+# (one line in the file). Keys:
+#   robot            --robot NAME, else the profile's file name without .json
+#   profile, log     the profile's path, the log file's
+#   day, logs        the name of the --logs folder (null when log files are given), their count
+#   outcome          "installed": the candidate replaced the profile;
+#                    "dry-run": it would have (--dry-run);
+#                    "refused": a candidate was made and judged unfit (a contact in the
+#                      calibration logs, events on the check logs, thresholds grown too much);
+#                    "kept": nothing to go on (fewer than 2 logs) or another run holds the lock;
+#                    "failed": the night could not run (a tool missing, a broken log, a write
+#                      failed); the profile stays in every case but "installed"
+#   reason           why the profile was kept (the KEPT line of the log), else null
+#   exit_status      the script's exit status (0, 1, or 2 when the backups folder is unusable)
+#   profile_version  what identifies the profile: "sha256_before", "sha256_after" (of the file;
+#                    equal unless installed), its "name", and "version"/"id"/"serial" when the
+#                    profile carries them, "changes_before"/"changes_after" (provenance entries)
+#                    and "last_change" (tool, version, time of the newest one, after the run)
+#   thresholds_before  the profile's thresholds at the start, per signal ("mu", "r") and state
+#                    ("moving", "slow", "rest": one number per joint, null where the joint has
+#                    none; "envelope": {"a", "b"} per joint), {} when it has none
+#   thresholds_after   the candidate's, as calibrated this night (also when refused), null when
+#                    the night did not get that far
+#   check_events     events on the check logs, {"candidate": N, "in_place": N or null}, when
+#                    the check ran
+#   backup           the replaced profile's backup (installed only)
+#   started, finished, duration_s   UTC, ISO 8601; seconds
 set -uo pipefail
 
 usage() {
@@ -41,12 +74,15 @@ usage: nightly-recalibrate.sh -p PROFILE [--logs DIR | LOG...] [options]
   --no-friction-fit       keep the friction in place, recalibrate the thresholds only
   --seed N                seed of the friction fit (default 1)
   -n, --dry-run           do everything but install
+  --json FILE             append one JSON line saying what happened to FILE (- for standard
+                          output; then the tools' own standard output goes to standard error)
+  --robot NAME            the robot's name in the JSON line (default: PROFILE's name, no .json)
   -h, --help              this help
 EOF
 }
 
 profile="" logs_dir="" backups="" keep=30 log_file="" max_increase=50 seed=1
-dry_run=0 fit_friction=1
+dry_run=0 fit_friction=1 json_file="" robot=""
 calibrate_options=()
 logs=()
 while (($#)); do
@@ -63,6 +99,8 @@ while (($#)); do
     --no-friction-fit) fit_friction=0; shift ;;
     --seed) seed=${2:?}; shift 2 ;;
     -n|--dry-run) dry_run=1; shift ;;
+    --json) json_file=${2:?}; shift 2 ;;
+    --robot) robot=${2:?}; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     -*) echo "nightly-recalibrate: unknown option $1" >&2; usage >&2; exit 2 ;;
     *) logs+=("$1"); shift ;;
@@ -75,9 +113,161 @@ fi
 profile=$(cd "$(dirname "$profile")" && pwd)/$(basename "$profile")
 folder=$(dirname "$profile")
 name=$(basename "$profile" .json)
+robot=${robot:-$name}
 backups=${backups:-$folder/backups}
-mkdir -p "$backups" || exit 2
+
+# --json: one line at exit, whatever happened (see the header). The profile is read with its
+# comments (// and /* */) taken out; python3 does the JSON.
+json_program=$(cat <<'EOF'
+import hashlib, json, os, sys
+
+def strip_comments(text):
+    out, i, n, quoted = [], 0, len(text), False
+    while i < n:
+        c = text[i]
+        if quoted:
+            out.append(c)
+            if c == "\\" and i + 1 < n:
+                out.append(text[i + 1]); i += 1
+            elif c == '"':
+                quoted = False
+        elif c == '"':
+            quoted = True; out.append(c)
+        elif text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+            continue
+        elif text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            i = n if j < 0 else j + 2
+            out.append(" ")
+            continue
+        else:
+            out.append(c)
+        i += 1
+    return "".join(out)
+
+def load(path):
+    """(sha256 of the file, the profile as JSON or None)"""
+    try:
+        data = open(path, "rb").read()
+    except OSError:
+        return None, None
+    try:
+        return hashlib.sha256(data).hexdigest(), json.loads(strip_comments(data.decode("utf-8")))
+    except ValueError:
+        return hashlib.sha256(data).hexdigest(), None
+
+def thresholds(p):
+    """Per signal and state, one value per joint (None where a joint has none)."""
+    if not isinstance(p, dict):
+        return None
+    out = {}
+    for signal, entry in sorted((p.get("thresholds") or {}).items()):
+        joints = entry.get("joints") or [] if isinstance(entry, dict) else []
+        states = {}
+        for state in ("moving", "slow", "rest", "envelope"):
+            values = [j.get(state) if isinstance(j, dict) else None for j in joints]
+            if any(v is not None for v in values):
+                states[state] = values
+        out[signal] = states
+    return out
+
+def identity(p):
+    """The profile's own names for itself and its newest change."""
+    if not isinstance(p, dict):
+        return {}
+    ident = {k: p[k] for k in ("name", "version", "id", "serial") if k in p}
+    provenance = p.get("provenance") if isinstance(p.get("provenance"), list) else []
+    ident["changes"] = len(provenance)
+    last = provenance[-1] if provenance and isinstance(provenance[-1], dict) else None
+    ident["last_change"] = {k: last.get(k) for k in ("tool", "version", "time")} if last else None
+    return ident
+
+mode = sys.argv[1]
+if mode == "before":  # PROFILE: what the night starts from, as one JSON object
+    sha, p = load(sys.argv[2])
+    print(json.dumps({"sha256": sha, "identity": identity(p), "thresholds": thresholds(p)}))
+    sys.exit(0)
+
+# line: everything else from the environment (NIGHTLY_*)
+e = os.environ
+before = json.loads(e.get("NIGHTLY_BEFORE") or "{}")
+sha_after, after = load(e["NIGHTLY_PROFILE"])
+ident_before, ident_after = before.get("identity", {}), identity(after)
+version = {k: v for k, v in ident_after.items() if k not in ("changes", "last_change")}
+for k, v in ident_before.items():
+    if k not in ("changes", "last_change"):
+        version.setdefault(k, v)
+version.update({"sha256_before": before.get("sha256"), "sha256_after": sha_after,
+                "changes_before": ident_before.get("changes"), "changes_after": ident_after.get("changes"),
+                "last_change": ident_after.get("last_change")})
+source = e.get("NIGHTLY_AFTER_FROM")
+after_thresholds = thresholds(load(source)[1]) if source else None
+status = int(e["NIGHTLY_STATUS"])
+outcome = e.get("NIGHTLY_OUTCOME") or "failed"
+reason = e.get("NIGHTLY_REASON") or None
+if not e.get("NIGHTLY_OUTCOME"):
+    reason = reason or f"stopped with exit status {status} before saying why (see the log)"
+def number(name):
+    v = e.get(name, "")
+    return int(v) if v.isdigit() else None
+line = {
+    "robot": e["NIGHTLY_ROBOT"],
+    "profile": e["NIGHTLY_PROFILE"],
+    "day": e.get("NIGHTLY_DAY") or None,
+    "logs": int(e.get("NIGHTLY_LOGS", "0")),
+    "outcome": outcome,
+    "reason": reason,
+    "exit_status": status,
+    "profile_version": version,
+    "thresholds_before": before.get("thresholds"),
+    "thresholds_after": after_thresholds,
+}
+if e.get("NIGHTLY_NEW_EVENTS"):
+    line["check_events"] = {"candidate": number("NIGHTLY_NEW_EVENTS"), "in_place": number("NIGHTLY_OLD_EVENTS")}
+if e.get("NIGHTLY_BACKUP") and outcome == "installed":
+    line["backup"] = e["NIGHTLY_BACKUP"]
+started, finished = float(e["NIGHTLY_STARTED_S"]), float(e["NIGHTLY_FINISHED_S"])
+line.update({"log": e.get("NIGHTLY_LOG") or None, "started": e["NIGHTLY_STARTED"],
+             "finished": e["NIGHTLY_FINISHED"], "duration_s": round(finished - started, 1)})
+print(json.dumps(line, separators=(", ", ": ")))
+EOF
+)
+outcome="" reason="" calibrated=0 backup="" new_events="" old_events="" locked=0 json_ready=0
+started=$(date -u +%Y-%m-%dT%H:%M:%SZ) started_s=$(date +%s.%N)
+if [[ -n $json_file ]]; then
+  command -v python3 > /dev/null || { echo "nightly-recalibrate: --json needs python3" >&2; exit 2; }
+  if [[ $json_file == - ]]; then
+    exec 8>&1 1>&2  # standard output holds the JSON line only
+  else
+    exec 8>> "$json_file" || { echo "nightly-recalibrate: cannot write $json_file" >&2; exit 2; }
+  fi
+  before_info=$(python3 -c "$json_program" before "$profile")
+  json_ready=1
+fi
+write_json() {  # exit-status
+  local after_from=""
+  if [[ $outcome == installed ]]; then
+    after_from=$profile
+  elif ((calibrated)) && [[ -f $candidate ]]; then
+    after_from=$candidate
+  fi
+  NIGHTLY_BEFORE=$before_info NIGHTLY_PROFILE=$profile NIGHTLY_AFTER_FROM=$after_from NIGHTLY_STATUS=$1 \
+    NIGHTLY_OUTCOME=$outcome NIGHTLY_REASON=$reason NIGHTLY_ROBOT=$robot NIGHTLY_DAY=${logs_dir:+$(basename "$logs_dir")} \
+    NIGHTLY_LOGS=${#logs[@]} NIGHTLY_NEW_EVENTS=$new_events NIGHTLY_OLD_EVENTS=$old_events NIGHTLY_BACKUP=$backup \
+    NIGHTLY_LOG=$log_file NIGHTLY_STARTED=$started NIGHTLY_STARTED_S=$started_s \
+    NIGHTLY_FINISHED=$(date -u +%Y-%m-%dT%H:%M:%SZ) NIGHTLY_FINISHED_S=$(date +%s.%N) \
+    python3 -c "$json_program" line >&8 ||
+    echo "nightly-recalibrate: cannot write the JSON line" >&2
+}
+
 log_file=${log_file:-$backups/nightly.log}
+if ! mkdir -p "$backups"; then
+  outcome=failed reason="cannot create the backups folder $backups" log_file=""
+  ((json_ready)) && write_json 2
+  exit 2
+fi
 if [[ -n $logs_dir ]]; then
   shopt -s nullglob
   logs+=("$logs_dir"/*.csv "$logs_dir"/*.bin)
@@ -90,10 +280,24 @@ stamp() { date -u +%Y-%m-%dT%H:%M:%SZ; }
 say() { echo "$(stamp) $*" >> "$log_file"; [[ -t 2 ]] && echo "$*" >&2; return 0; }
 work=""
 candidate="$folder/.$name.candidate.json"
-cleanup() { [[ -n $work ]] && rm -rf "$work"; rm -f "$candidate"; }
+cleanup() {
+  local status=$?
+  ((json_ready)) && write_json "$status"
+  [[ -n $work ]] && rm -rf "$work"
+  # The candidate is this run's only while it holds the lock (another run's otherwise).
+  ((locked)) && rm -f "$candidate"
+  return 0
+}
 trap cleanup EXIT
-# Ends the night keeping the profile in place.
+# Ends the night keeping the profile in place: failed (default), --refused (a candidate judged
+# unfit) or --kept (nothing to go on), for the JSON line.
 keep_old() {
+  outcome=failed
+  case $1 in
+    --refused) outcome=refused; shift ;;
+    --kept) outcome=kept; shift ;;
+  esac
+  reason="$*"
   say "KEPT $profile unchanged: $*"
   exit 1
 }
@@ -118,15 +322,17 @@ run() {
 # One night at a time per profile.
 exec 9> "$folder/.$name.nightly.lock" || exit 2
 if ! flock -n 9; then
-  say "another nightly run holds $folder/.$name.nightly.lock; nothing done"
+  outcome=kept reason="another nightly run holds $folder/.$name.nightly.lock; nothing done"
+  say "$reason"
   exit 1
 fi
+locked=1
 
 say "---- nightly recalibration of $profile from ${#logs[@]} logs"
 for tool in mo-observe mo-lugre-fit mo-calibrate mo-detect; do
   command -v "$tool" > /dev/null || keep_old "$tool not found on PATH"
 done
-((${#logs[@]} >= 2)) || keep_old "need at least 2 logs (one to calibrate on, one to check), got ${#logs[@]}"
+((${#logs[@]} >= 2)) || keep_old --kept "need at least 2 logs (one to calibrate on, one to check), got ${#logs[@]}"
 work=$(mktemp -d "${TMPDIR:-/tmp}/momentum-nightly.XXXXXX") || keep_old "cannot create a work folder"
 # sed's pattern and replacement, each with its special characters escaped.
 pattern() { printf '%s' "$1" | sed 's/[]\/$*.^|[]/\\&/g'; }
@@ -179,9 +385,10 @@ done
 if ! run mo-calibrate -q -p "$candidate" --reject-contact --strict "${calibrate_options[@]}" "${new_calibration[@]}" \
     > "$work/calibration.txt"; then
   to_log < "$work/calibration.txt"
-  keep_old "calibration refused or failed (a contact in the calibration logs?)"
+  keep_old --refused "calibration refused or failed (a contact in the calibration logs?)"
 fi
 to_log < "$work/calibration.txt"
+calibrated=1
 
 # 5. Check: events on the check part, candidate and profile in place.
 events() {  # profile observed-streams...: prints the number of events, or "none" without thresholds
@@ -212,9 +419,9 @@ if [[ $new_events == none ]]; then
   to_log < "$work/detect.err"
   keep_old "the candidate cannot run the detector (see above)"
 fi
-((new_events == 0)) || keep_old "the candidate raises $new_events events on collision-free logs"
+((new_events == 0)) || keep_old --refused "the candidate raises $new_events events on collision-free logs"
 if [[ $old_events != none ]] && ((new_events > old_events)); then
-  keep_old "the candidate raises more events than the profile in place"
+  keep_old --refused "the candidate raises more events than the profile in place"
 fi
 
 # Thresholds must not balloon: a day that calibrates far looser than the profile in place is
@@ -222,9 +429,10 @@ fi
 growth=$(awk -v limit="$max_increase" '
   $1 == "#" && $2 == "change" && $9 ~ /%$/ && $9 + 0 > limit { printf "%s%s %s %s -> %s Nm (%s)", sep, $3, $4, $5, $7, $9; sep = "; " }
 ' "$work/calibration.txt")
-[[ -z $growth ]] || keep_old "thresholds grew by more than $max_increase%: $growth"
+[[ -z $growth ]] || keep_old --refused "thresholds grew by more than $max_increase%: $growth"
 
 if ((dry_run)); then
+  outcome=dry-run
   say "dry run: the candidate would be installed"
   exit 0
 fi
@@ -234,6 +442,7 @@ backup="$backups/$name.$(date -u +%Y%m%dT%H%M%SZ).json"
 cp -p "$profile" "$backup" || keep_old "cannot back up to $backup"
 chmod --reference="$profile" "$candidate" 2> /dev/null
 mv -f "$candidate" "$profile" || keep_old "cannot rename the candidate over the profile"
+outcome=installed
 say "INSTALLED the new profile; the old one is $backup"
 mapfile -t old_backups < <(ls -1 "$backups"/"$name".*.json 2> /dev/null | sort -r | tail -n +$((keep + 1)))
 for f in "${old_backups[@]}"; do
