@@ -42,6 +42,7 @@
 
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
+#include "momentum/observer/filter.hpp"
 
 namespace momentum::dynfit {
 
@@ -78,6 +79,11 @@ struct IdentifyOptions {
   double slow_settle_time_constants = 3.0;
   // Shortest block of the sandwich covariance, s (> 0).
   double block = 1.0;
+  // Rows counted per time constant 1/K of the filter (>= 0; 0: every row). The filtered
+  // equation's error is correlated over about 1/K, so rows much closer together repeat what
+  // their neighbours say: at 1 kHz and K = 10 1/s, 20 per time constant counts every 5th row
+  // (the filters still run on every sample) and costs a fifth; at 125 Hz it counts them all.
+  double rows_per_time_constant = 20.0;
   // Fits with doubled velocity noise for the errors-in-variables term (>= 0; 0: none), the
   // samples that estimate the noise level first (>= 10), and the seed of the added noise.
   int velocity_noise_draws = 2;
@@ -240,6 +246,18 @@ class Identifier {
   // Filter states and previous inputs.
   bool started_ = false, have_time_ = false;
   double t_previous_ = 0, t_start_ = 0, t_log_ = 0, typical_dt_ = 0;
+  // The next time the regressor is evaluated and a row may count (rows_per_time_constant),
+  // and the time since the last one.
+  double next_regression_ = 0, since_regression_ = 0;
+  // The filter's coefficients for the last interval seen, per use: most logs have one step.
+  struct CachedCoefficients {
+    double dt = -1;
+    observer::FilterCoefficients c;
+  };
+  CachedCoefficients sample_coefficients_, regression_coefficients_;
+  Eigen::VectorXd row_;  // accumulate()'s scratch
+  static const observer::FilterCoefficients& coefficients(const observer::Gains& gains, double dt,
+                                                          CachedCoefficients& cache);
   Eigen::MatrixXd Yp_, Yb_, Fp_, Fb_, Yp_prev_, Yb_prev_;
   Eigen::MatrixXd friction_, friction_prev_, Ff_;  // n x 2: tanh, dq
   Eigen::VectorXd y_, y_prev_, Fy_;                 // tau_m - K B dq part handled separately

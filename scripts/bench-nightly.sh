@@ -1,0 +1,135 @@
+#!/usr/bin/env bash
+# Times a night's recalibration of one robot from a day of logs (man momentum, "nightly").
+#   scripts/bench-nightly.sh [--hours H] [--rate HZ] [--work DIR] [BUILD_DIR]
+# defaults: 8 hours, 1 kHz, a fresh work folder (deleted at exit unless --work is given), build.
+#
+# The day: H hourly files of the simulated 6-joint UR5 (tests/data/ur5-sim.json: true friction
+# LuGre, sensors of a real controller) in multisine and paper motion, collision-free, binary
+# streams. Simulating them is not timed (2 files at a time; with --work they are kept and
+# reused). The night, each step timed for wall, CPU and peak memory:
+#   1. mo-dynfit on every hour: the inertial corrections (held-out check inside);
+#   2. mo-observe every hour with the corrected profile (2 at a time);
+#   3. mo-lugre-fit on the odd hours (the calibration part, as nightly-recalibrate.sh splits);
+#   4. mo-observe the calibration part again with the fitted friction (2 at a time);
+#   5. mo-calibrate on it;
+#   6. mo-detect on the even hours (the check part): the count of events must be 0.
+# The issue's targets on 2 cores: the whole night under 2 minutes and under 100 MB.
+set -euo pipefail
+hours=8 rate=1000 work="" keep=0
+while (($#)); do
+  case $1 in
+    --hours) hours=${2:?}; shift 2 ;;
+    --rate) rate=${2:?}; shift 2 ;;
+    --work) work=${2:?}; keep=1; shift 2 ;;
+    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "bench-nightly: unknown option $1" >&2; exit 2 ;;
+    *) break ;;
+  esac
+done
+build=$(cd "${1:-build}" && pwd)
+here=$(cd "$(dirname "$0")/.." && pwd)
+for t in mo-sim mo-dynfit mo-observe mo-lugre-fit mo-calibrate mo-detect; do
+  [[ -x $build/bin/$t ]] || { echo "bench-nightly: $build/bin/$t not built (cmake --build $build)" >&2; exit 1; }
+done
+export PATH=$build/bin:$PATH
+if [[ -z $work ]]; then
+  work=$(mktemp -d /tmp/momentum-bench-nightly.XXXXXX)
+  trap 'rm -rf "$work"' EXIT
+fi
+mkdir -p "$work/day" "$work/night"
+cp "$here/tests/data/ur5-sim.json" "$here/tests/data/ur5_robot.urdf" "$work/"
+profile=$work/ur5-sim.json
+
+echo "== the day: $hours hourly files at $rate Hz of a 6-joint arm (simulated, not timed)"
+simulate() {  # hour
+  local h=$1 file
+  file=$(printf '%s/day/hour-%02d.bin' "$work" "$h")
+  [[ -s $file ]] && return 0
+  # Alternate rich excitation and the paper's smooth sines, each hour a different seed.
+  local trajectory=multisine
+  ((h % 2)) || trajectory=paper
+  mo-sim -q -p "$profile" --seed "$h" --rate "$rate" --duration 3600 --trajectory "$trajectory" \
+    --integrator semi-implicit --internal-rate $((rate * 2 > 2000 ? rate * 2 : 2000)) \
+    --output-format bin -o "$file.part" && mv "$file.part" "$file"
+}
+export -f simulate
+export work profile rate
+seq 1 "$hours" | xargs -P 2 -I{} bash -c 'simulate {}'
+mapfile -t logs < <(ls "$work"/day/hour-*.bin | head -n "$hours")
+calibration=() check=()
+for i in "${!logs[@]}"; do
+  if ((i % 2 == 0)); then calibration+=("${logs[i]}"); else check+=("${logs[i]}"); fi
+done
+du -sh "$work/day" | awk '{print "   " $1 " on disk"}'
+
+total_wall=0 total_cpu=0 peak=0
+# Runs a step under /usr/bin/time; with several commands (one per line on stdin), 2 at a time,
+# the peak being the largest single process's.
+step() {  # label, then the command; or label and -P (commands on stdin)
+  local label=$1; shift
+  local t0 t1 wall cpu rss=0 status=0
+  : > "$work/night/times"
+  t0=$(date +%s.%N)
+  if [[ $1 == -P ]]; then
+    xargs -P 2 -d '\n' -I{} /usr/bin/time -a -o "$work/night/times" -f "%U %S %M" bash -c '{}' || status=$?
+  else
+    /usr/bin/time -a -o "$work/night/times" -f "%U %S %M" "$@" || status=$?
+  fi
+  t1=$(date +%s.%N)
+  ((status == 0)) || label="$label (exit $status)"
+  read -r wall cpu rss < <(awk -v a="$t0" -v b="$t1" '
+    NF == 3 && $1 ~ /^[0-9.]+$/ { cpu += $1 + $2; if ($3 > rss) rss = $3 }
+    END { printf "%.2f %.2f %d\n", b - a, cpu, rss }' "$work/night/times")
+  printf '%-44s wall %7.2f s  cpu %7.2f s  peak %6.1f MB\n' "$label" "$wall" "$cpu" "$(echo "$rss / 1024" | bc -l)"
+  total_wall=$(echo "$total_wall + $wall" | bc -l)
+  total_cpu=$(echo "$total_cpu + $cpu" | bc -l)
+  ((rss > peak)) && peak=$rss
+  return 0
+}
+
+echo "== the night, $(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)"
+step "1. mo-dynfit, ${#logs[@]} h" \
+  mo-dynfit -q -p "$profile" --torque-held -o "$work/night/corrected.json" --report "$work/night/dynfit.json" "${logs[@]}"
+corrected=$work/night/corrected.json
+[[ -s $corrected ]] || { echo "bench-nightly: mo-dynfit wrote no profile (see $work/night/dynfit.json)" >&2; cp "$profile" "$corrected"; }
+
+for f in "${logs[@]}"; do
+  echo "mo-observe -q -p '$corrected' --output-format bin -o '$work/night/old-$(basename "$f")' '$f'"
+done | step "2. mo-observe, ${#logs[@]} h, 2 at a time" -P
+
+old_calibration=()
+for f in "${calibration[@]}"; do old_calibration+=("$work/night/old-$(basename "$f")"); done
+step "3. mo-lugre-fit, ${#calibration[@]} h" \
+  mo-lugre-fit -q -p "$corrected" -o "$work/night/fitted.json" --report "$work/night/lugre.json" "${old_calibration[@]}"
+fitted=$work/night/fitted.json
+[[ -s $fitted ]] || { echo "bench-nightly: mo-lugre-fit wrote no profile" >&2; exit 1; }
+
+for f in "${calibration[@]}" "${check[@]}"; do
+  echo "mo-observe -q -p '$fitted' --output-format bin -o '$work/night/new-$(basename "$f")' '$f'"
+done | step "4. mo-observe with the fitted friction, ${#logs[@]} h" -P
+
+new_calibration=() new_check=()
+for f in "${calibration[@]}"; do new_calibration+=("$work/night/new-$(basename "$f")"); done
+for f in "${check[@]}"; do new_check+=("$work/night/new-$(basename "$f")"); done
+step "5. mo-calibrate, ${#calibration[@]} h" \
+  mo-calibrate -q -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}" > "$work/night/calibration.txt"
+
+for f in "${new_check[@]}"; do
+  echo "mo-detect -q -p '$work/night/calibrated.json' '$f' > '$f.events.csv'; [ \$? -le 1 ]"
+done | step "6. mo-detect on the check part, ${#check[@]} h" -P
+events=$(cat "$work"/night/new-*.events.csv 2>/dev/null | grep -c ',onset,' || true)
+
+printf '%-44s wall %7.2f s  cpu %7.2f s  peak %6.1f MB\n' "the night" "$total_wall" "$total_cpu" "$(echo "$peak / 1024" | bc -l)"
+echo "events on the check part: $events (collision-free: should be 0)"
+python3 - "$work/night/dynfit.json" "$work/night/lugre.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+print("dynfit: outcome:", d.get("outcome"), "| held-out RMS before -> after (Nm):",
+      " ".join(f"{b:.3f}->{a:.3f}" for b, a in zip(d["rms_before"], d["rms_after"])))
+l = json.load(open(sys.argv[2]))
+for j in l["joints"]:
+    m = j["fit"]["metrics"]
+    print(f"lugre-fit joint {j.get('joint', '?')}: rms {m.get('rms', float('nan')):.3f} Nm")
+PY
+((keep)) && echo "work folder kept: $work"
+exit 0
