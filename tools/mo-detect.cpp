@@ -87,6 +87,7 @@ int main(int argc, char** argv) {
 
   // Skipped rows do not change the status (1 means a collision here); they are summed up.
   tool.set_skipped_rows_status(std::nullopt);
+  tool.set_error_status(kError);
   tool.set_no_rows_policy(true, kNoRows, /*warning=*/true);
   std::uint64_t collisions = 0;
   const int status = tool.run(argc, argv, [&]() -> int {

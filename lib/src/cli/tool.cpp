@@ -2,9 +2,11 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 
@@ -117,7 +119,31 @@ std::unique_ptr<stream::Writer> Tool::open_output(stream::Reader& like) const {
 
 bool Tool::show_progress() const { return !quiet_ && ::isatty(STDERR_FILENO); }
 
+namespace {
+
+// Standard output's last words: what is still buffered is written now, and a write that failed
+// on the way (a full disk, an I/O error) is an error, not a success. A closed pipe is the
+// reader's choice and stays quiet. Returns the reason, empty when all went out.
+std::string standard_output_failure() {
+  errno = 0;
+  std::cout.flush();
+  const bool flushed = std::fflush(stdout) == 0;
+  if (flushed && !std::ferror(stdout) && !std::cout.fail()) return {};
+  if (errno == EPIPE) return {};
+  return errno != 0 ? std::strerror(errno) : "write error";
+}
+
+}  // namespace
+
 int Tool::run(int argc, char** argv, const std::function<int()>& body) {
+  const int status = run_body(argc, argv, body);
+  const std::string failure = standard_output_failure();
+  if (failure.empty()) return status;
+  std::cerr << name_ << ": error: standard output: " << failure << "\n";
+  return error_status_;
+}
+
+int Tool::run_body(int argc, char** argv, const std::function<int()>& body) {
   // A closed pipe shows as EPIPE from write(2), turned into a quiet exit by the Writer.
   std::signal(SIGPIPE, SIG_IGN);
   for (int i = 1; i < argc; ++i) args_.emplace_back(argv[i]);
@@ -163,11 +189,11 @@ int Tool::run(int argc, char** argv, const std::function<int()>& body) {
   } catch (const Error& e) {
     report_skipped_rows();
     std::cerr << name_ << ": error: " << e.what() << "\n";
-    return kFailure;
+    return error_status_;
   } catch (const std::exception& e) {
     report_skipped_rows();
     std::cerr << name_ << ": error: " << e.what() << "\n";
-    return kFailure;
+    return error_status_;
   }
 }
 

@@ -70,6 +70,9 @@ class Tool {
     no_rows_warning_ = warning;
   }
   static constexpr std::uint64_t kShownPerKind = 5;
+  // The exit status of a runtime error (momentum::Error, a failed write to standard output):
+  // kFailure, or mo-detect's 2 (its 1 means a collision).
+  void set_error_status(int status) { error_status_ = status; }
   // -p FILE, the robot profile.
   void add_profile(bool required = true);
   // --payload NAME: which of the profile's payloads the dynamics include ("none": none; not
@@ -81,7 +84,9 @@ class Tool {
 
   // Parses argv and runs `body`. Handles --help (stdout, 0), --version, usage errors (one
   // line on stderr, 2), momentum::Error (`name: error: what`, 1), a closed output pipe (quiet
-  // 0), and routes momentum::warn to stderr (silenced by --quiet). Returns the exit status.
+  // 0), a failed write to standard output (a full disk: `name: error: standard output: why`,
+  // 1, also after --help), and routes momentum::warn to stderr (silenced by --quiet). Returns
+  // the exit status.
   int run(int argc, char** argv, const std::function<int()>& body);
 
   // Options after parsing.
@@ -111,6 +116,7 @@ class Tool {
   bool show_progress() const;
 
  private:
+  int run_body(int argc, char** argv, const std::function<int()>& body);
   std::string name_;
   CLI::App app_;
   std::vector<std::string> args_;
@@ -128,6 +134,7 @@ class Tool {
   std::optional<int> skipped_rows_status_ = kFailure;
   bool check_no_rows_ = true;
   int no_rows_status_ = kFailure;
+  int error_status_ = kFailure;
   bool no_rows_warning_ = false;
   std::uint64_t inputs_opened_ = 0;
   std::uint64_t rows_returned_ = 0;
