@@ -61,6 +61,9 @@ int main(int argc, char** argv) {
   app.add_option("--velocity-noise-draws", options.velocity_noise_draws,
                  "fits with the velocity noise doubled, for its bias in the uncertainty; 0 none (default 2)")
       ->type_name("N");
+  app.add_option("--velocity-noise-seconds", options.velocity_noise_seconds,
+                 "seconds of log those fits run over, 0 all (default 600)")
+      ->type_name("S");
 
   return tool.run(argc, argv, [&] {
     const auto start = std::chrono::steady_clock::now();

@@ -164,6 +164,8 @@ bool IdentifyOptions::IsValid(std::string* why) const {
   if (!(slow_settle_time_constants >= 0) || !std::isfinite(slow_settle_time_constants))
     return reject(why, "settle time after slow motion must be >= 0");
   if (velocity_noise_draws < 0) return reject(why, "velocity-noise draws must be >= 0");
+  if (!(velocity_noise_seconds >= 0) || !std::isfinite(velocity_noise_seconds))
+    return reject(why, "velocity-noise seconds must be >= 0");
   if (velocity_noise_samples < 10) return reject(why, "velocity-noise samples must be >= 10");
   return true;
 }
@@ -292,8 +294,27 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
     }
     return;
   }
+  if (noise_reference_) return;  // the copies have seen their share of the log
   for (std::size_t c = 0; c < noisy_.size(); ++c)
     add_to_copy(*noisy_[c], c, index, velocity_noise_, t, q, dq, tau_m, noisy_dq_);
+  if (options_.velocity_noise_seconds > 0 && t_log_ >= options_.velocity_noise_seconds) noise_reference_ = snapshot();
+}
+
+std::unique_ptr<Identifier> Identifier::snapshot() const {
+  IdentifyOptions options = options_;
+  options.friction_probe = false;
+  options.velocity_noise_draws = 0;
+  auto copy = std::make_unique<Identifier>(model_, options);
+  copy->blocks_ = blocks_;
+  copy->block_start_ = block_start_;
+  copy->fit_joint_ = fit_joint_;
+  copy->held_joint_ = held_joint_;
+  copy->skipped_ = skipped_;
+  copy->restarts_ = restarts_;
+  copy->seconds_fit_ = seconds_fit_;
+  copy->seconds_held_ = seconds_held_;
+  copy->t_log_ = t_log_;
+  return copy;
 }
 
 namespace {
@@ -505,9 +526,16 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
     short_log_copies = replay_kept(&noise);
     copies = &short_log_copies;
   }
+  // The copies' shift is measured against the fit of the same rows: all of them, or the first
+  // velocity_noise_seconds of a longer log (the bias is a property of the noise and of the
+  // motion, not of how much of it there is).
   Eigen::VectorXd shift = Eigen::VectorXd::Zero(s.delta_unprojected.size());
-  for (const auto& copy : *copies)
-    shift += (copy->solve_one(nullptr).delta_unprojected - s.delta_unprojected) / static_cast<double>(copies->size());
+  if (!copies->empty()) {
+    const Eigen::VectorXd reference =
+        noise_reference_ ? noise_reference_->solve_one(nullptr).delta_unprojected : s.delta_unprojected;
+    for (const auto& copy : *copies)
+      shift += (copy->solve_one(nullptr).delta_unprojected - reference) / static_cast<double>(copies->size());
+  }
   s.velocity_noise = noise.size() == n_ ? noise : Eigen::VectorXd::Zero(n_);
   s.velocity_noise_draws = static_cast<int>(copies->size());
   // The friction-model term; a log with too little fast motion for the probe has none.

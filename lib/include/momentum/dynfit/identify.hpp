@@ -88,6 +88,9 @@ struct IdentifyOptions {
   // samples that estimate the noise level first (>= 10), and the seed of the added noise.
   int velocity_noise_draws = 2;
   int velocity_noise_samples = 2000;
+  // Seconds of log the copies run over (>= 0; 0: all of it). Their shift is measured against
+  // the fit of the same rows, so a longer log costs one fit, not 1 + draws, past this.
+  double velocity_noise_seconds = 600;
   std::uint64_t seed = 1;
   // Fit again with min_speed doubled (at least 0.1 rad/s) for the friction-model term.
   bool friction_probe = true;
@@ -231,6 +234,10 @@ class Identifier {
   bool restart_pending_ = false;
   bool copies_started_ = false;
   std::vector<std::unique_ptr<Identifier>> noisy_;
+  // This fit's normal equations when the copies stopped (velocity_noise_seconds), what their
+  // shift is measured against; null while they run.
+  std::unique_ptr<Identifier> noise_reference_;
+  std::unique_ptr<Identifier> snapshot() const;
   Eigen::VectorXd velocity_noise_, noisy_dq_;
   // The friction-model probe: a second set of normal equations over the rows that stay fast
   // at its higher min_speed (per joint, the time until which a joint's rows do not count).
