@@ -72,6 +72,7 @@ int main(int argc, char** argv) {
   int stall = quick.stall_generations, elite = quick.elite, threads = 0;
   double crossover = quick.crossover, mutation = quick.mutation;
   std::uint64_t evaluations = 0;
+  std::size_t max_samples = 200000;
   std::vector<std::string> mirror_logs;
   app.add_flag("--update", update, "write the fitted friction into the profile (-p) in place");
   app.add_option("-o,--output", output, "write the updated profile to FILE instead (- for stdout)")->type_name("FILE");
@@ -105,6 +106,9 @@ int main(int argc, char** argv) {
   app.add_flag("--paper-bounds", paper_bounds, "search the paper's box (sigma2, tau_c, tau_s up to 10) instead of one scaled to the robot and the data");
   app.add_option("--widenings", widenings, "refits in a 4 times wider box when a parameter ends on its bound (default 2)")->type_name("N");
   app.add_option("--fix", fix_text, "hold parameters at values, e.g. sigma0=1e5")->type_name("LIST");
+  app.add_option("--max-samples", max_samples,
+                 "samples kept per joint over all inputs, as windows spread over them; 0 all (default 200000)")
+      ->type_name("N");
   app.add_option("--threads", threads, "joints fitted at once (default: one per core)")->type_name("N");
   app.add_option("--mirror", mirror_logs, "check the fit against a trajectory and its mirror (paper's ref. 37)")
       ->expected(2)->type_name("FILE");
@@ -198,15 +202,25 @@ int main(int argc, char** argv) {
     }
     if (current) options.friction = current->options;
     select.gap_factor = observer_options.gap_factor;
+    // Long logs are thinned to windows while read: each input its share of the budget, each
+    // window long against the observer's memory, which its warm-up lets fade (5 of the
+    // slowest time constant, 1/K2 for the second-order observer).
+    std::vector<std::string> inputs = tool.inputs();
+    if (inputs.empty()) inputs.push_back("-");
+    const std::vector<observer::Gains> robot_gains = observer_options.joint_gains(robot.nq);
+    if (max_samples > 0) {
+      double slowest = 0;
+      for (const auto& g : robot_gains) slowest = std::max(slowest, 1.0 / (g.k2 > 0 ? g.k2 : g.k1));
+      select.max_samples = std::max<std::size_t>(max_samples / inputs.size(), 1);
+      select.thin_warmup = 5 * slowest;
+      select.thin_window = std::max(10.0, 10 * select.thin_warmup);
+    }
     std::string why;
     identify.fit = options;
     if (!identify.IsValid(&why)) throw cli::UsageError(why);
     if (!select.IsValid(&why)) throw cli::UsageError(why);
-    const std::vector<observer::Gains> robot_gains = observer_options.joint_gains(robot.nq);
 
     // The data: every log, appended joint by joint.
-    std::vector<std::string> inputs = tool.inputs();
-    if (inputs.empty()) inputs.push_back("-");
     std::vector<fit::JointSeries> series;
     for (const auto& path : inputs) {
       auto in = tool.open_input(path);

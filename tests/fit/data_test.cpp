@@ -152,3 +152,48 @@ TEST(VelocityNoise, EstimatesWhiteNoiseOnSmoothMotion) {
   for (std::size_t k = 0; k < s.size(); ++k) s.dq[k] = 0.75 * std::cos(1.2566 * s.t[k]);
   EXPECT_LT(fit::estimate_velocity_noise(s), 1e-4);
 }
+
+TEST(ReadSeries, LongLogsAreThinnedToEvenlySpreadWindows) {
+  // 100 s at 100 Hz, one sample more than the budget allows many times over.
+  std::string text = "t,dq1,r1\n";
+  for (int k = 0; k <= 10000; ++k) text += std::to_string(k / 100.0) + ",1," + std::to_string(k) + "\n";
+  fit::SelectOptions o;
+  o.max_samples = 2500;
+  o.thin_window = 1.0;
+  o.thin_warmup = 0.1;
+  const auto s = read(text, o);
+  ASSERT_EQ(s.size(), 1u);
+  const auto& j = s[0];
+  EXPECT_LE(j.size(), o.max_samples);
+  EXPECT_GE(j.size(), o.max_samples / 2);  // thinning halves at most once past the budget
+  // Whole windows, their starts evenly spaced over the log, each a fresh start whose first
+  // 0.1 s (10 samples) do not count; r still holds the row it was read from.
+  std::vector<double> starts;
+  for (std::size_t k = 0; k < j.size(); ++k) {
+    EXPECT_DOUBLE_EQ(j.r[k], std::round(j.t[k] * 100));
+    const bool start = k == 0 || j.t[k] - j.t[k - 1] > 0.015;
+    EXPECT_EQ(j.restart[k], start ? 2 : 0) << "at t " << j.t[k];
+    if (start) starts.push_back(j.t[k]);
+    const double into_window = j.t[k] - starts.back();
+    if (k > 0 && into_window < 0.1 - 1e-9) {
+      EXPECT_EQ(j.scored[k], 0) << "at t " << j.t[k];
+    } else if (into_window > 0.1 + 1e-9) {
+      EXPECT_EQ(j.scored[k], 1) << "at t " << j.t[k];
+    }
+  }
+  ASSERT_GE(starts.size(), 10u);
+  const double spacing = starts[1] - starts[0];
+  EXPECT_GE(spacing, 2.0);
+  for (std::size_t w = 1; w < starts.size(); ++w) EXPECT_NEAR(starts[w] - starts[w - 1], spacing, 1e-9);
+  EXPECT_GT(starts.back(), 100.0 - 2 * spacing);  // the spread reaches the end of the log
+  for (std::size_t w = 0; w + 1 < starts.size(); ++w) EXPECT_NEAR(starts[w], std::floor(starts[w]), 1e-9);
+}
+
+TEST(ReadSeries, ThinningNeedsWindowsLongerThanTheirWarmUp) {
+  fit::SelectOptions o;
+  o.thin_window = 1.0;
+  o.thin_warmup = 1.0;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("warm-up"), std::string::npos);
+}

@@ -37,6 +37,8 @@ bool SelectOptions::IsValid(std::string* why) const {
   for (int j : joints)
     if (j < 1) return fail("joint numbers start at 1");
   if (!(gap_factor > 1)) return fail("gap factor must be > 1");
+  if (!(thin_window > 0) || !std::isfinite(thin_window) || !(thin_warmup >= 0) || !(thin_warmup < thin_window))
+    return fail("thinning windows must be longer than their warm-up");
   return true;
 }
 
@@ -88,6 +90,29 @@ std::size_t exclude_slow_samples(JointSeries& s, double min_speed, double settle
   return removed;
 }
 
+namespace {
+
+// Keeps the samples for which keep(t) holds, in place, in every column of the series.
+template <class Keep>
+void keep_samples(JointSeries& s, Keep keep) {
+  std::size_t out = 0;
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    if (!keep(s.t[k])) continue;
+    s.t[out] = s.t[k];
+    s.dq[out] = s.dq[k];
+    s.r[out] = s.r[k];
+    s.restart[out] = s.restart[k];
+    s.scored[out] = s.scored[k];
+    for (auto& q : s.positions) q[out] = q[k];
+    ++out;
+  }
+  for (auto* v : {&s.t, &s.dq, &s.r}) v->resize(out);
+  for (auto* v : {&s.restart, &s.scored}) v->resize(out);
+  for (auto& q : s.positions) q.resize(out);
+}
+
+}  // namespace
+
 std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error(in.name() + ": " + why);
@@ -117,6 +142,9 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
   std::vector<std::uint8_t> pending(joints.size(), 1);  // next good row restarts the joint
   bool have_time = false;
   double t_first = 0, t_last = 0;
+  // Thinning (max_samples): windows whose index is a multiple of `stride` are kept.
+  std::uint64_t stride = 1;
+  auto window_of = [&](double t) { return static_cast<std::uint64_t>(std::floor((t - t_first) / options.thin_window)); };
   double shift = 0, last_step = 0;  // after a clock step back, stream time + shift continues t_last
   while (const double* row = in.next()) {
     if (have_time && in.time_mark() == stream::TimeMark::clock_step) {
@@ -140,6 +168,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
     t_last = t;
     const double stream_t = row[t_col];  // --window is in the stream's own time
     if (options.window_end && stream_t > *options.window_end) continue;
+    if (stride > 1 && window_of(t) % stride != 0) continue;
     const bool restart_row = restart_col && row[*restart_col] != 0;
     const bool counts = t >= t_first + options.skip &&
                         (!options.window_begin || stream_t >= *options.window_begin);
@@ -159,6 +188,22 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       s.scored.push_back(counts ? 1 : 0);
       for (std::size_t c = 0; c < q_col.size(); ++c) s.positions[c].push_back(row[q_col[c]]);
       pending[i] = 0;
+    }
+    if (options.max_samples > 0 && !series.empty() && series.front().size() > options.max_samples) {
+      stride *= 2;
+      for (auto& s : series) keep_samples(s, [&](double t) { return window_of(t) % stride == 0; });
+    }
+  }
+  if (stride > 1) {
+    for (auto& s : series) {
+      double window_start = s.t.empty() ? 0 : s.t.front();
+      for (std::size_t k = 1; k < s.size(); ++k) {
+        if (window_of(s.t[k]) != window_of(s.t[k - 1])) {
+          s.restart[k] = 2;
+          window_start = s.t[k];
+        }
+        if (s.t[k] - window_start < options.thin_warmup) s.scored[k] = 0;
+      }
     }
   }
   for (auto& s : series) {

@@ -44,9 +44,18 @@ struct SelectOptions {
   // A step longer than gap_factor times the median step restarts the observer (as
   // observer::ObserverOptions::gap_factor does), so the model's filter restarts there too. > 1.
   double gap_factor = 5.0;
+  // Memory bound for long logs (0: keep every sample). A stream longer than this many samples
+  // per joint is kept as windows of thin_window seconds spread evenly over it: every window at
+  // first, every 2nd once the budget is reached, every 4th at the next, ... (constant memory,
+  // decided while reading). Each kept window that follows a dropped one starts the model
+  // afresh (restart 2), and its first thin_warmup seconds do not count: the observer's memory
+  // of the samples that were dropped (5 of its slowest time constants).
+  std::size_t max_samples = 0;
+  double thin_window = 10.0;   // s, > 0
+  double thin_warmup = 0.1;    // s, >= 0 and < thin_window
 
-  // False (reason in `why`) for a negative skip, an empty or reversed window, joints < 1, or
-  // gap_factor <= 1.
+  // False (reason in `why`) for a negative skip, an empty or reversed window, joints < 1,
+  // gap_factor <= 1, or thinning windows that are not longer than their warm-up.
   bool IsValid(std::string* why) const;
 };
 
