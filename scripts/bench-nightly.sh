@@ -112,7 +112,8 @@ new_calibration=() new_check=()
 for f in "${calibration[@]}"; do new_calibration+=("$work/night/new-$(basename "$f")"); done
 for f in "${check[@]}"; do new_check+=("$work/night/new-$(basename "$f")"); done
 step "5. mo-calibrate, ${#calibration[@]} h" \
-  mo-calibrate -q -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}" > "$work/night/calibration.txt"
+  sh -c 'report=$1; shift; exec mo-calibrate "$@" > "$report"' sh "$work/night/calibration.txt" \
+  -q -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}"
 
 for f in "${new_check[@]}"; do
   echo "mo-detect -q -p '$work/night/calibrated.json' '$f' > '$f.events.csv'; [ \$? -le 1 ]"

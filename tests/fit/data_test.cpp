@@ -197,3 +197,16 @@ TEST(ReadSeries, ThinningNeedsWindowsLongerThanTheirWarmUp) {
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("warm-up"), std::string::npos);
 }
+
+TEST(ReadSeries, ThinningKeepsAFirstWindowLongerThanTheBudget) {
+  std::string text = "t,dq1,r1\n";
+  for (int k = 0; k <= 3000; ++k) text += std::to_string(k / 100.0) + ",1,0\n";
+  fit::SelectOptions o;
+  o.max_samples = 500;
+  o.thin_window = 10.0;  // 1000 samples a window, twice the budget
+  o.thin_warmup = 0.1;
+  const auto s = read(text, o);
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_EQ(s[0].size(), 1000u);  // the first window, whole; the two after it dropped
+  EXPECT_DOUBLE_EQ(s[0].t.back(), 9.99);
+}

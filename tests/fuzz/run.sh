@@ -3,13 +3,13 @@
 # the captures and DBC files of tests/data/can, the URDFs of tests/data and tests/cli (each
 # prefixed with its "ROOT TIP" line), plus the inputs that once failed
 # (tests/fuzz/regressions/<target>).
-#   tests/fuzz/run.sh [RUNS]      RUNS inputs per target (default 30000) with a fixed seed, so
+#   tests/fuzz/run.sh [RUNS]      RUNS inputs per target (default 20000) with a fixed seed, so
 #                                 that CI is reproducible: the same tree gives the same verdict
 #   FUZZ_SECONDS=600 tests/fuzz/run.sh    explore for that long instead, with a random seed
 # Exits non-zero when a fuzzer finds a crash, a leak or undefined behaviour; the reproducer is
 # left in the work directory and its path printed (add it to tests/fuzz/regressions/<target>/).
 set -euo pipefail
-runs=${1:-30000}
+runs=${1:-20000}
 if [[ -n "${FUZZ_SECONDS:-}" ]]; then
   budget=(-max_total_time="$FUZZ_SECONDS")
   what="for ${FUZZ_SECONDS}s"

@@ -189,7 +189,9 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       for (std::size_t c = 0; c < q_col.size(); ++c) s.positions[c].push_back(row[q_col[c]]);
       pending[i] = 0;
     }
-    if (options.max_samples > 0 && !series.empty() && series.front().size() > options.max_samples) {
+    // Never below one window: a first window longer than the budget is kept whole.
+    if (options.max_samples > 0 && !series.empty() && series.front().size() > options.max_samples &&
+        window_of(t) >= stride) {
       stride *= 2;
       for (auto& s : series) keep_samples(s, [&](double t) { return window_of(t) % stride == 0; });
     }

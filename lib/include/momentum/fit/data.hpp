@@ -49,7 +49,8 @@ struct SelectOptions {
   // first, every 2nd once the budget is reached, every 4th at the next, ... (constant memory,
   // decided while reading). Each kept window that follows a dropped one starts the model
   // afresh (restart 2), and its first thin_warmup seconds do not count: the observer's memory
-  // of the samples that were dropped (5 of its slowest time constants).
+  // of the samples that were dropped (5 of its slowest time constants). The first window is
+  // always kept whole, even when it alone is over the budget.
   std::size_t max_samples = 0;
   double thin_window = 10.0;   // s, > 0
   double thin_warmup = 0.1;    // s, >= 0 and < thin_window
