@@ -93,9 +93,11 @@ step "1. mo-dynfit, ${#logs[@]} h" \
 corrected=$work/night/corrected.json
 [[ -s $corrected ]] || { echo "bench-nightly: mo-dynfit wrote no profile (see $work/night/dynfit.json)" >&2; cp "$profile" "$corrected"; }
 
+# (The commands go through a file: a pipe into step would run it in a subshell, losing the totals.)
 for f in "${logs[@]}"; do
   echo "mo-observe -q -p '$corrected' --output-format bin -o '$work/night/old-$(basename "$f")' '$f'"
-done | step "2. mo-observe, ${#logs[@]} h, 2 at a time" -P
+done > "$work/night/commands"
+step "2. mo-observe, ${#logs[@]} h, 2 at a time" -P < "$work/night/commands"
 
 old_calibration=()
 for f in "${calibration[@]}"; do old_calibration+=("$work/night/old-$(basename "$f")"); done
@@ -106,7 +108,8 @@ fitted=$work/night/fitted.json
 
 for f in "${calibration[@]}" "${check[@]}"; do
   echo "mo-observe -q -p '$fitted' --output-format bin -o '$work/night/new-$(basename "$f")' '$f'"
-done | step "4. mo-observe with the fitted friction, ${#logs[@]} h" -P
+done > "$work/night/commands"
+step "4. mo-observe with the fitted friction, ${#logs[@]} h" -P < "$work/night/commands"
 
 new_calibration=() new_check=()
 for f in "${calibration[@]}"; do new_calibration+=("$work/night/new-$(basename "$f")"); done
@@ -117,7 +120,8 @@ step "5. mo-calibrate, ${#calibration[@]} h" \
 
 for f in "${new_check[@]}"; do
   echo "mo-detect -q -p '$work/night/calibrated.json' '$f' > '$f.events.csv'; [ \$? -le 1 ]"
-done | step "6. mo-detect on the check part, ${#check[@]} h" -P
+done > "$work/night/commands"
+step "6. mo-detect on the check part, ${#check[@]} h" -P < "$work/night/commands"
 events=$(cat "$work"/night/new-*.events.csv 2>/dev/null | grep -c ',onset,' || true)
 
 printf '%-44s wall %7.2f s  cpu %7.2f s  peak %6.1f MB\n' "the night" "$total_wall" "$total_cpu" "$(echo "$peak / 1024" | bc -l)"

@@ -199,21 +199,13 @@ MomentumObserver::MomentumObserver(const model::Model& model, const ObserverOpti
       u_(model.nq) {}
 
 void MomentumObserver::record_interval(double dt, bool gap) {
-  window_[window_next_] = dt;
-  window_next_ = (window_next_ + 1) % kWindow;
-  if (window_count_ < kWindow) ++window_count_;
+  step_median_.push(dt);
   // The median moves slowly; recomputing it every 8 intervals keeps the hot path cheap. After
   // a gap it is recomputed at once, so that a change of sample rate stops counting as gaps as
   // soon as half the window holds the new rate.
-  if (gap || window_count_ < kWindow || ++since_median_ >= 8) {
+  if (gap || !step_median_.full() || ++since_median_ >= 8) {
     since_median_ = 0;
-    double sorted[kWindow];
-    std::copy(window_, window_ + window_count_, sorted);
-    const int mid = window_count_ / 2;
-    std::nth_element(sorted, sorted + mid, sorted + window_count_);
-    double median = sorted[mid];
-    if (window_count_ % 2 == 0) median = 0.5 * (median + *std::max_element(sorted, sorted + mid));
-    median_dt_ = median;
+    median_dt_ = step_median_.update();
   }
 }
 

@@ -60,13 +60,8 @@ void TimeOrder::keep(Row&& row) {
     const double dt = t - last_t_;
     row.mark = median_dt_ > 0 && dt > kStepFactor * median_dt_ ? TimeMark::gap : TimeMark::none;
     if (row.mark == TimeMark::gap) ++summary_.gaps;
-    window_[window_next_] = dt;
-    window_next_ = (window_next_ + 1) % kWindow;
-    window_count_ = std::min(window_count_ + 1, kWindow);
-    double sorted[kWindow];
-    std::copy(window_, window_ + window_count_, sorted);
-    std::nth_element(sorted, sorted + window_count_ / 2, sorted + window_count_);
-    median_dt_ = sorted[window_count_ / 2];
+    step_median_.push(dt);
+    median_dt_ = step_median_.update();
   }
   have_last_ = true;
   last_t_ = t;

@@ -1,6 +1,7 @@
 #pragma once
-// Robust statistics shared by the fitters.
+// Robust statistics shared by the fitters and the streams.
 
+#include <algorithm>
 #include <vector>
 
 namespace momentum::core {
@@ -20,5 +21,39 @@ double grouped_median(std::vector<double>& values);
 // s sqrt(6), and their median magnitude is robust to the signal's own curvature and to the odd
 // outlier. Empty: 0.
 double white_noise_from_second_differences(std::vector<double>& magnitudes);
+
+// The median of the last N values pushed: a stream's typical time step, robust to the gaps and
+// the jitter it is there to judge. push() records; update() recomputes (an nth_element over
+// at most N values), so a caller on a hot path may refresh less often than it pushes.
+template <int N>
+class RunningMedian {
+ public:
+  static_assert(N > 0);
+  void push(double value) {
+    window_[next_] = value;
+    next_ = (next_ + 1) % N;
+    if (count_ < N) ++count_;
+  }
+  // The median of the window (for an even count, the mean of the two middle values); 0 before
+  // the first push.
+  double update() {
+    if (count_ == 0) return median_;
+    double sorted[N];
+    std::copy(window_, window_ + count_, sorted);
+    const int mid = count_ / 2;
+    std::nth_element(sorted, sorted + mid, sorted + count_);
+    median_ = sorted[mid];
+    if (count_ % 2 == 0) median_ = 0.5 * (median_ + *std::max_element(sorted, sorted + mid));
+    return median_;
+  }
+  double value() const { return median_; }  // as of the last update()
+  bool full() const { return count_ == N; }
+
+ private:
+  double window_[N] = {};
+  int count_ = 0;
+  int next_ = 0;
+  double median_ = 0;
+};
 
 }  // namespace momentum::core

@@ -22,6 +22,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "momentum/core/statistics.hpp"
 #include "momentum/friction/friction.hpp"
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
@@ -198,13 +199,10 @@ class MomentumObserver {
   bool last_gap_mismatched_ = false;
   int mismatch_joint_ = 0;
   double mismatch_ = 0;
-  static constexpr int kWindow = 16;
   // A step this much longer than the median means lost samples (or a jitter of more than a
   // quarter period each way): such a step is checked before it is integrated.
   static constexpr double kLostSamples = 1.5;
-  double window_[kWindow] = {};
-  int window_count_ = 0;
-  int window_next_ = 0;
+  core::RunningMedian<16> step_median_;
   int since_median_ = 0;
 };
 

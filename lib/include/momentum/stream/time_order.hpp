@@ -24,6 +24,8 @@
 #include <string_view>
 #include <vector>
 
+#include "momentum/core/statistics.hpp"
+
 namespace momentum::stream {
 
 // How a kept row relates to the kept row before it.
@@ -107,11 +109,8 @@ class TimeOrder {
   bool have_previous_ = false;
   bool have_last_ = false;
   double last_t_ = 0;
-  static constexpr int kWindow = 16;
   static constexpr double kStepFactor = 1.5;
-  double window_[kWindow] = {};
-  int window_count_ = 0;
-  int window_next_ = 0;
+  core::RunningMedian<16> step_median_;
   double median_dt_ = 0;
 };
 
