@@ -16,7 +16,8 @@ that has a counterpart in the simulator's true friction or URDF with the truth:
              bristles); the predicted steady-state friction at a few speeds ("f@0.05" ...,
              rad/s), its uncertainty propagated from the reported covariance and the signed
              systematic shifts.
-  dynfit     a multisine of 60 s at 1 kHz (simulation seed = the seed), fitted with mo-dynfit
+  dynfit     the excitation (mo-sim --trajectory excite: the same motion for every seed, so that
+             the base parameters are the same combinations) for 60 s at 1 kHz, fitted with mo-dynfit
              --torque-held with the true profile as the nominal one (the estimator is linear:
              the nominal model does not move the unprojected estimate). Compared: every base
              parameter (its direction applied to the URDF's standard parameters), and the
@@ -26,7 +27,7 @@ Truth models (the profile's simulation.friction): "lugre" is the paper arm's own
 (paper's Table 1); "stribeck" is a static Coulomb-viscous friction with a Stribeck dip (tau_c
 and tau_s of the paper's table swapped, so that the breakaway level tau_s is above the Coulomb
 level, same w_s and sigma2), a model that neither fitter's own model is; "coulomb-viscous" the
-paper's tau_c and sigma2 alone (mo-dynfit's own model; a control).
+paper's tau_c and sigma2 alone (mo-dynfit's own model; a control); "none" no friction.
 
 z = (fitted - true) / reported uncertainty, the uncertainty being what the report calls
 "uncertainty" (standard error and systematic shifts combined). The table gives per fitter and
@@ -76,6 +77,8 @@ def truth_profile(model, work):
             "model": "stribeck",
             "joints": [{"sigma2": j["sigma2"], "tau_c": j["tau_s"], "tau_s": j["tau_c"], "w_s": j["w_s"]}
                        for j in lugre]}
+    elif model == "none":
+        del profile["simulation"]["friction"]
     elif model == "coulomb-viscous":
         profile["simulation"]["friction"] = {
             "model": "coulomb-viscous",
@@ -165,10 +168,10 @@ def lugre_fit_seed(args, truth, profile_path, profile, seed, work):
     obs = os.path.join(work, f"lugre-{truth}-{seed}.csv")
     report = os.path.join(work, f"lugre-{truth}-{seed}.json")
     n = nice()
-    cmd = (f"{n}{tool(args, 'mo-sim')} -q -p {profile_path} --rate 125 --duration 14 --seed {seed} | "
+    cmd = (f"{n}{tool(args, 'mo-sim')} -q -p {profile_path} --rate 125 --duration 14 --seed {seed} {args.sim_options} | "
            f"{n}{tool(args, 'mo-observe')} -q -p {profile_path} > {obs} && "
            f"{n}{tool(args, 'mo-lugre-fit')} -q -p {profile_path} --skip 1 --no-static --threads 1 "
-           f"--seed {seed} {obs} --report {report}")
+           f"--seed {seed} {args.fit_options} {obs} --report {report}")
     status, err = run(cmd)
     if not os.path.exists(report):
         raise RuntimeError(f"lugre-fit seed {seed} ({truth}): exit {status}: {err.strip()}")
@@ -225,8 +228,8 @@ def dynfit_seed(args, truth, profile_path, profile, seed, work):
     log = os.path.join(work, f"dyn-{truth}-{seed}.csv")
     report = os.path.join(work, f"dyn-{truth}-{seed}.json")
     n = nice()
-    cmd = (f"{n}{tool(args, 'mo-sim')} -q -p {profile_path} --trajectory multisine --duration 60 --seed {seed} "
-           f"-o {log} && {n}{tool(args, 'mo-dynfit')} -q -p {profile_path} --torque-held --seed {seed} {log} "
+    cmd = (f"{n}{tool(args, 'mo-sim')} -q -p {profile_path} --trajectory excite --duration 60 --seed {seed} {args.sim_options} "
+           f"-o {log} && {n}{tool(args, 'mo-dynfit')} -q -p {profile_path} --torque-held --seed {seed} {args.fit_options} {log} "
            f"--report {report}")
     status, err = run(cmd)
     if not os.path.exists(report):
@@ -245,11 +248,14 @@ def dynfit_seed(args, truth, profile_path, profile, seed, work):
         # Base parameters are numbered by singular value (the report's order), largest first.
         rows.append((f"b{k + 1}", base["value"] - true_value, base["uncertainty"], base["standard_error"]))
     fr = fit.get("friction")
-    true_joints = profile["simulation"]["friction"]["joints"]
-    if fr and profile["simulation"]["friction"]["model"] == "coulomb-viscous":
-        for j, true in enumerate(true_joints):
-            rows.append((f"j{j + 1}.coulomb", fr["coulomb"][j] - true["tau_c"], fr["coulomb_se"][j], fr["coulomb_se"][j]))
-            rows.append((f"j{j + 1}.viscous", fr["viscous"][j] - true["sigma2"], fr["viscous_se"][j], fr["viscous_se"][j]))
+    sim = profile["simulation"].get("friction", {"model": "coulomb-viscous",
+                                                 "joints": [{"tau_c": 0.0, "sigma2": 0.0}] * len(fr["coulomb"])})
+    if fr and sim["model"] == "coulomb-viscous":
+        for j, true in enumerate(sim["joints"]):
+            for name, truth_name in (("coulomb", "tau_c"), ("viscous", "sigma2")):
+                se = fr[f"{name}_se"][j]
+                unc = fr.get(f"{name}_uncertainty", fr[f"{name}_se"])[j]  # older reports: SE only
+                rows.append((f"j{j + 1}.{name}", fr[name][j] - true[truth_name], unc, se))
     return rows
 
 
@@ -271,6 +277,8 @@ def main():
     ap.add_argument("--jobs", type=int, default=1, help="seeds run at once (default 1)")
     ap.add_argument("--fitters", default="lugre-fit,dynfit")
     ap.add_argument("--truths", default="lugre,stribeck")
+    ap.add_argument("--sim-options", default="", help="more options for mo-sim (e.g. --velocity-noise 0)")
+    ap.add_argument("--fit-options", default="", help="more options for the fitters")
     ap.add_argument("--per-parameter", action="store_true", help="the per-parameter table (default when --seeds >= 8)")
     ap.add_argument("--require", action="append", default=[], metavar="FITTER/TRUTH:K=SHARE")
     ap.add_argument("--json", help="write every z to FILE")
