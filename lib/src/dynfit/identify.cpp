@@ -161,8 +161,6 @@ bool IdentifyOptions::IsValid(std::string* why) const {
   if (!(rows_per_time_constant >= 0) || !std::isfinite(rows_per_time_constant))
     return reject(why, "rows per time constant must be >= 0");
   if (!(min_speed >= 0) || !std::isfinite(min_speed)) return reject(why, "minimum speed must be >= 0");
-  if (!(slow_settle_time_constants >= 0) || !std::isfinite(slow_settle_time_constants))
-    return reject(why, "settle time after slow motion must be >= 0");
   if (velocity_noise_draws < 0) return reject(why, "velocity-noise draws must be >= 0");
   if (!(velocity_noise_seconds >= 0) || !std::isfinite(velocity_noise_seconds))
     return reject(why, "velocity-noise seconds must be >= 0");
@@ -191,20 +189,44 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
   fit_joint_.assign(static_cast<std::size_t>(n_), empty);
   held_joint_.assign(static_cast<std::size_t>(n_), empty);
   block_length_ = options_.block;
-  slow_until_.assign(static_cast<std::size_t>(n_), -std::numeric_limits<double>::infinity());
+  count_from_.assign(static_cast<std::size_t>(n_), std::numeric_limits<double>::infinity());
+  slow_.assign(static_cast<std::size_t>(n_), false);
   if (options_.friction_probe && options_.fit_friction) {
-    // Only its normal equations are used: this identifier feeds it the same filtered rows,
-    // gated by the higher speed (probe_slow_until_).
+    // A fit of its own (its rows restart where its joints pass its higher speed), fed every
+    // sample; only its normal equations are used.
     IdentifyOptions probe = options_;
     probe.min_speed = std::max(2 * options_.min_speed, 0.1);
     probe.friction_probe = false;
     probe.velocity_noise_draws = 0;
     friction_probe_ = std::make_unique<Identifier>(nominal, probe);
-    probe_slow_until_ = slow_until_;
   }
 }
 
 Identifier::~Identifier() = default;
+
+void Identifier::Grid::add(double k_, double t_) {
+  n += 1;
+  sk += k_;
+  st += t_;
+  skk += k_ * k_;
+  skt += k_ * t_;
+  const double d = n * skk - sk * sk;
+  if (n >= 2 && d > 0) {
+    const double p = (n * skt - sk * st) / d;
+    if (p > 0 && std::isfinite(p)) {
+      period = p;
+      origin = (st - p * sk) / n;
+    }
+  }
+}
+
+double Identifier::cycle_start(double t) const {
+  if (!(grid_.period > 0)) return t;
+  // A sample up to 2% of a cycle before a tick counts as taken at the tick: the fitted grid's
+  // own error, and a log without jitter whose times are rounded.
+  const double x = t - grid_.t_first - grid_.origin;
+  return grid_.t_first + grid_.origin + std::floor(x / grid_.period + 0.02) * grid_.period;
+}
 
 void Identifier::restart() {
   restart_sample();
@@ -220,6 +242,7 @@ void Identifier::restart_sample() {
   t_log_ = options_.holdout_segment * std::ceil(t_log_ / options_.holdout_segment + 1e-9);
   started_ = false;
   have_time_ = false;
+  if (friction_probe_) friction_probe_->restart_sample();
 }
 
 std::uint64_t Identifier::samples_fit() const {
@@ -389,6 +412,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   if (!std::isfinite(t) || !q.allFinite() || !dq.allFinite() || !tau_m.allFinite()) {
     ++skipped_;
     started_ = false;
+    if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
     return;
   }
   double dt = 0;
@@ -397,6 +421,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     if (!(dt > 0)) {
       ++skipped_;
       started_ = false;
+      if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
       return;
     }
     t_log_ += dt;  // time goes on through gaps and bad rows: held-out segments stay aligned
@@ -409,6 +434,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   }
   have_time_ = true;
   t_previous_ = t;
+  if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
   for (int j = 0; j < n_; ++j) {
     friction_(j, 0) = std::tanh(dq[j] / options_.coulomb_speed);
     friction_(j, 1) = dq[j];
@@ -430,10 +456,26 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     started_ = true;
     t_start_ = t;
     typical_dt_ = 0;
+    ++restarts_;
+    // The filters start in steady state, wrong by the filtered dp/dt of this instant: rows
+    // count after settle_time_constants / K (or from a joint's exact restart, below).
+    std::fill(count_from_.begin(), count_from_.end(), t + options_.settle_time_constants / options_.filter_gain);
+    std::fill(slow_.begin(), slow_.end(), false);
+    grid_ = Grid{};
+    grid_.t_first = t;
+    grid_.add(0.0, 0.0);
     next_regression_ = t;
     since_regression_ = 0;
-    ++restarts_;
     return;
+  }
+  if (options_.torque_held) {
+    // The control cycle: t against the sample's cycle number, by least squares over the log
+    // so far. The number is the nearest tick of the grid fitted so far (so that a dropped
+    // sample skips one, and no error accumulates), one more than the last for the first 50
+    // samples, while the grid is still rough.
+    const double x = t - grid_.t_first;
+    grid_.k = grid_.n < 50 ? grid_.k + 1 : std::max(grid_.k + 1, std::round((x - grid_.origin) / grid_.period));
+    grid_.add(grid_.k, x);
   }
   // The cheap signals (torque, friction terms, rotor momentum) are filtered at every sample;
   // the regressor (the chain's dynamics, most of the cost) only at the rows that count, with
@@ -448,22 +490,43 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   };
   advance(c, Ff_, friction_prev_, friction_);
   if (options_.torque_held) {
-    // The drive applied the torque reported at the start of the interval until its end.
-    Fy_ = c.a1 * Fy_ + (c.b10 + c.b11) * y_prev_;
+    // The drive applies each torque from a tick of its control cycle to the next, and a sample
+    // reports the torque in effect at its instant. Without jitter the ticks are the samples,
+    // and the previous sample's torque holds over the whole interval. With jitter (a sample
+    // late or early against its tick), the torque changes at the tick within the interval, a
+    // sample taken just before its tick still reports the previous cycle's torque, and a cycle
+    // between two such samples is not seen at all (taken as the mean of its neighbours).
+    // Holding each sample's torque until the next sample instead shifts the torque in time by
+    // a fraction of a cycle, and biased the inertial parameters by several standard errors.
+    const double t0 = t - dt;
+    const double tick1 = std::min(cycle_start(t0) + grid_.period, t);  // the first change
+    const double tick2 = std::min(std::max(cycle_start(t), tick1), t);  // the last change
+    const double k = options_.filter_gain;
+    const double w1 = std::exp(-k * (t - tick1)) - c.a1;  // weights of the three pieces
+    const double w2 = std::exp(-k * (t - tick2)) - std::exp(-k * (t - tick1));
+    const double w3 = 1.0 - std::exp(-k * (t - tick2));
+    Fy_ = c.a1 * Fy_ + w1 * y_prev_ + (0.5 * w2) * (y_prev_ + y_) + w3 * y_;
     y_prev_ = y_;
   } else {
     advance(c, Fy_, y_prev_, y_);
   }
   advance(c, Fpk_, pk_prev_, pk_);
-  const double slow_settle = options_.slow_settle_time_constants / options_.filter_gain;
-  for (int j = 0; j < n_; ++j) {
-    const auto i = static_cast<std::size_t>(j);
-    if (std::abs(dq[j]) < options_.min_speed) slow_until_[i] = t + slow_settle;
-    if (friction_probe_ && std::abs(dq[j]) < friction_probe_->options_.min_speed) probe_slow_until_[i] = t + slow_settle;
-  }
+  const double k = options_.filter_gain;
+  const double g = c.gain;  // 1 for the first-order low-pass, whatever the interval
+  // Rows count at rows_per_time_constant, and at once where a joint leaves slow motion (its
+  // row's filters restart there, from the regressor of that sample).
   since_regression_ += dt;
+  bool leaves_slow = false;
+  for (int j = 0; j < n_; ++j)
+    leaves_slow = leaves_slow || (slow_[static_cast<std::size_t>(j)] && std::abs(dq[j]) >= options_.min_speed);
+  if (options_.rows_per_time_constant > 0 && !leaves_slow) {
+    if (t < next_regression_ - 0.25 * dt) {
+      for (int j = 0; j < n_; ++j)
+        if (std::abs(dq[j]) < options_.min_speed) slow_[static_cast<std::size_t>(j)] = true;
+      return;
+    }
+  }
   if (options_.rows_per_time_constant > 0) {
-    if (t < next_regression_ - 0.25 * dt) return;
     const double interval = 1.0 / (options_.rows_per_time_constant * options_.filter_gain);
     next_regression_ = std::max(next_regression_ + interval, t + 0.5 * interval);
   }
@@ -473,10 +536,33 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   const observer::FilterCoefficients& cr = coefficients(gains, counted_dt, regression_coefficients_);
   advance(cr, Fp_, Yp_prev_, Yp_);
   advance(cr, Fb_, Yb_prev_, Yb_);
-  if (t - t_start_ < options_.settle_time_constants / options_.filter_gain) return;
-
-  const double k = options_.filter_gain;
-  const double g = c.gain;  // 1 for the first-order low-pass, whatever the interval
+  // A joint's equation does not count while the joint is slower than min_speed: friction there
+  // sticks and shows Stribeck and presliding effects that the Coulomb + viscous model does not
+  // have. Nor may their memory in the filtered equation count: when the joint is fast again,
+  // its row's filters restart at rest (F[tau_m], F[beta], F[tau_f] at 0, F[p] at p, so that
+  // K (p - F[p]) = F[dp/dt] = 0 too). The filtered equation then holds exactly from that sample
+  // on, with nothing of the slow phase in it, and counts at once. (Restarting in steady state,
+  // as at a log's start, or waiting a few time constants leaves a few percent of the sticking's
+  // friction error, which biased the Coulomb levels by several standard errors.)
+  bool any_counted = false;
+  for (int j = 0; j < n_; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    if (std::abs(dq[j]) < options_.min_speed) {
+      slow_[i] = true;
+      continue;
+    }
+    if (slow_[i]) {
+      slow_[i] = false;
+      Fp_.row(j) = Yp_.row(j) / g;
+      Fb_.row(j).setZero();
+      Ff_.row(j).setZero();
+      Fy_[j] = 0.0;
+      Fpk_[j] = pk_[j] / g;
+      count_from_[i] = std::min(count_from_[i], t);
+    }
+    any_counted = any_counted || t >= count_from_[i];
+  }
+  if (!any_counted) return;
   const Eigen::MatrixXd W = k * (Yp_ - g * Fp_) + g * Fb_;
   const Eigen::VectorXd y = g * Fy_ - k * (pk_ - g * Fpk_);
   Eigen::VectorXd e = y - W * theta_nominal_;
@@ -493,27 +579,15 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     const auto segment = static_cast<long long>(std::floor(t_log_ / options_.holdout_segment));
     held_out = segment % options_.holdout_every == options_.holdout_every - 1;
   }
-  // Rows of joints that were slow within the filter's memory do not count (friction there is
-  // presliding and Stribeck, which the Coulomb + viscous model cannot follow): here, and with
-  // the probe's higher speed in the friction-model probe.
-  auto count_fast_rows = [&](Identifier& into, const std::vector<double>& slow_until) {
-    bool any = false;
-    for (int i = 0; i < n_; ++i) {
-      if (t < slow_until[static_cast<std::size_t>(i)]) {
-        Z.row(i).setZero();
-        e[i] = 0.0;
-      } else {
-        any = true;
-      }
+  for (int j = 0; j < n_; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    if (slow_[i] || t < count_from_[i]) {
+      Z.row(j).setZero();
+      e[j] = 0.0;
     }
-    if (!any) return;
-    into.t_log_ = t_log_;  // the probe's covariance blocks follow this log's time
-    into.accumulate(Z, e, held_out);
-    (held_out ? into.seconds_held_ : into.seconds_fit_) += counted_dt;
-  };
-  // The probe's speed is the higher, so its rows are a subset: it goes second.
-  count_fast_rows(*this, slow_until_);
-  if (friction_probe_) count_fast_rows(*friction_probe_, probe_slow_until_);
+  }
+  accumulate(Z, e, held_out);
+  (held_out ? seconds_held_ : seconds_fit_) += counted_dt;
 }
 
 IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
@@ -526,24 +600,38 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
     short_log_copies = replay_kept(&noise);
     copies = &short_log_copies;
   }
+  Eigen::VectorXd shift = Eigen::VectorXd::Zero(s.delta_unprojected.size());
   // The copies' shift is measured against the fit of the same rows: all of them, or the first
   // velocity_noise_seconds of a longer log (the bias is a property of the noise and of the
   // motion, not of how much of it there is).
-  Eigen::VectorXd shift = Eigen::VectorXd::Zero(s.delta_unprojected.size());
+  Eigen::VectorXd coulomb_shift = Eigen::VectorXd::Zero(n_), viscous_shift = Eigen::VectorXd::Zero(n_);
   if (!copies->empty()) {
-    const Eigen::VectorXd reference =
-        noise_reference_ ? noise_reference_->solve_one(nullptr).delta_unprojected : s.delta_unprojected;
-    for (const auto& copy : *copies)
-      shift += (copy->solve_one(nullptr).delta_unprojected - reference) / static_cast<double>(copies->size());
+    const IdentifySummary reference = noise_reference_ ? noise_reference_->solve_one(nullptr) : s;
+    for (const auto& copy : *copies) {
+      const IdentifySummary c = copy->solve_one(nullptr);
+      const double share = 1.0 / static_cast<double>(copies->size());
+      shift += (c.delta_unprojected - reference.delta_unprojected) * share;
+      coulomb_shift += (c.coulomb - reference.coulomb) * share;
+      viscous_shift += (c.viscous - reference.viscous) * share;
+    }
   }
   s.velocity_noise = noise.size() == n_ ? noise : Eigen::VectorXd::Zero(n_);
   s.velocity_noise_draws = static_cast<int>(copies->size());
   // The friction-model term; a log with too little fast motion for the probe has none.
   Eigen::VectorXd friction_shift = Eigen::VectorXd::Zero(shift.size());
+  Eigen::VectorXd coulomb_probe = Eigen::VectorXd::Zero(n_), viscous_probe = Eigen::VectorXd::Zero(n_);
   if (friction_probe_ && friction_probe_->samples_fit() > 0) {
-    friction_shift = friction_probe_->solve_one(nullptr).delta_unprojected - s.delta_unprojected;
+    const IdentifySummary probe = friction_probe_->solve_one(nullptr);
+    friction_shift = probe.delta_unprojected - s.delta_unprojected;
+    coulomb_probe = probe.coulomb - s.coulomb;
+    viscous_probe = probe.viscous - s.viscous;
     s.friction_probe_min_speed = friction_probe_->options_.min_speed;
   }
+  // The friction levels' uncertainty, combined in the same way.
+  s.coulomb_uncertainty = (s.coulomb_se.array().square() + coulomb_shift.array().square() +
+                           coulomb_probe.array().square()).sqrt().matrix();
+  s.viscous_uncertainty = (s.viscous_se.array().square() + viscous_shift.array().square() +
+                           viscous_probe.array().square()).sqrt().matrix();
   for (BaseParameter& base : s.base) {
     base.velocity_noise_shift = base.direction.dot(shift);
     base.friction_shift = base.direction.dot(friction_shift);

@@ -215,8 +215,10 @@ std::string report_text(const Report& report) {
   }
   if (s.fit_friction) {
     for (int j = 0; j < s.nq; ++j) {
+      const bool combined = s.coulomb_uncertainty.size() == s.nq && s.viscous_uncertainty.size() == s.nq;
       std::snprintf(buffer, sizeof buffer, "friction joint %d: Coulomb %.4g +- %.2g Nm, viscous %.4g +- %.2g Nm s/rad", j + 1,
-                    s.coulomb[j], s.coulomb_se[j], s.viscous[j], s.viscous_se[j]);
+                    s.coulomb[j], combined ? s.coulomb_uncertainty[j] : s.coulomb_se[j], s.viscous[j],
+                    combined ? s.viscous_uncertainty[j] : s.viscous_se[j]);
       line(buffer);
     }
   }
@@ -301,7 +303,9 @@ nlohmann::json report_json(const Report& report) {
   }
   if (s.fit_friction) {
     j["friction"] = {{"coulomb", vector_json(s.coulomb)}, {"coulomb_se", vector_json(s.coulomb_se)},
-                     {"viscous", vector_json(s.viscous)}, {"viscous_se", vector_json(s.viscous_se)}};
+                     {"coulomb_uncertainty", vector_json(s.coulomb_uncertainty)},
+                     {"viscous", vector_json(s.viscous)}, {"viscous_se", vector_json(s.viscous_se)},
+                     {"viscous_uncertainty", vector_json(s.viscous_uncertainty)}};
   }
   j["delta"] = vector_json(s.delta);
   j["projections"] = s.projections;

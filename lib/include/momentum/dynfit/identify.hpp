@@ -55,9 +55,11 @@ struct IdentifyOptions {
   // Fit Coulomb + viscous friction per joint jointly with the inertial parameters. Off: the
   // inputs are assumed to be friction-compensated already.
   bool fit_friction = true;
-  // The motor torque of a sample is held until the next sample (a drive that applies each
-  // cycle's command for the whole cycle, as mo-sim's controller does); otherwise it is taken
-  // as linear between samples, like every other signal.
+  // The motor torque is held over the drive's control cycle, one cycle per sample (a drive that
+  // applies each cycle's command for the whole cycle, as mo-sim's controller does), and a
+  // sample reports the torque in effect at its instant: the ticks are a regular grid fitted to
+  // the sample times, which may jitter around them. Otherwise the torque is taken as linear
+  // between samples, like every other signal.
   bool torque_held = false;
   // Speed scale of the smoothed Coulomb term tanh(dq / coulomb_speed), rad/s (> 0).
   double coulomb_speed = 0.02;
@@ -73,10 +75,10 @@ struct IdentifyOptions {
   double holdout_segment = 10.0;
   int holdout_every = 5;
   // A joint's equation does not count while the joint is slower than min_speed (rad/s, >= 0;
-  // 0 counts everything) nor for slow_settle_time_constants / K after (>= 0): there friction
-  // sticks and shows Stribeck and presliding effects the Coulomb + viscous model does not have.
+  // 0 counts everything): there friction sticks and shows Stribeck and presliding effects the
+  // Coulomb + viscous model does not have. When it is fast again, its row's filters restart
+  // from rest, so that nothing of the slow phase stays in the filtered equation.
   double min_speed = 0.0;
-  double slow_settle_time_constants = 3.0;
   // Shortest block of the sandwich covariance, s (> 0).
   double block = 1.0;
   // Rows counted per time constant 1/K of the filter (>= 0; 0: every row). The filtered
@@ -144,6 +146,9 @@ struct IdentifySummary {
   // Friction per joint: Coulomb (Nm) and viscous (Nm s/rad) with standard errors, fitted
   // jointly with the correction.
   Eigen::VectorXd coulomb, viscous, coulomb_se, viscous_se;
+  // The standard errors combined with the velocity-noise and friction-model shifts, as the
+  // base parameters' uncertainty (set by solve(); equal to the standard errors without them).
+  Eigen::VectorXd coulomb_uncertainty, viscous_uncertainty;
   // Bodies whose estimate was not physical, and what was done.
   std::vector<std::string> projections;
   // How far physical consistency moved the identified combinations, in their standard errors
@@ -239,10 +244,9 @@ class Identifier {
   std::unique_ptr<Identifier> noise_reference_;
   std::unique_ptr<Identifier> snapshot() const;
   Eigen::VectorXd velocity_noise_, noisy_dq_;
-  // The friction-model probe: a second set of normal equations over the rows that stay fast
-  // at its higher min_speed (per joint, the time until which a joint's rows do not count).
+  // The friction-model probe: a second fit, at its higher min_speed, of the same samples
+  // (its own regressor, at its own rows).
   std::unique_ptr<Identifier> friction_probe_;
-  std::vector<double> probe_slow_until_;
 
   const model::Model& model_;
   IdentifyOptions options_;
@@ -273,7 +277,20 @@ class Identifier {
   std::vector<Block> blocks_;
   double block_length_ = 0, block_start_ = 0;
   std::vector<JointStats> fit_joint_, held_joint_;
-  std::vector<double> slow_until_;  // per joint: its rows do not count before this time
+  // Per joint: its rows do not count before this time (a log's settling, or its restart), nor
+  // while it is slower than min_speed.
+  std::vector<double> count_from_;
+  std::vector<bool> slow_;
+  // The drive's control cycle (torque_held): a regular grid t = t_first + origin + k period,
+  // fitted by least squares to the log's sample times against their cycle numbers k.
+  struct Grid {
+    double n = 0, sk = 0, st = 0, skk = 0, skt = 0;  // sums over (k, t - t_first)
+    double t_first = 0, k = 0, period = 0, origin = 0;
+    void add(double k, double t);
+  };
+  Grid grid_;
+  // The tick of the control cycle at or before time t (t itself before the grid is known).
+  double cycle_start(double t) const;
   std::uint64_t skipped_ = 0;
   int restarts_ = 0;
   double seconds_fit_ = 0, seconds_held_ = 0;
