@@ -268,7 +268,7 @@ def share(zs, k):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] + " See the top of this file.",
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=20, help="number of seeds (default 20)")
     ap.add_argument("--seed", type=int, default=1, help="first seed (default 1)")
@@ -276,13 +276,15 @@ def main():
     ap.add_argument("--work", help="working folder (default: a temporary one, removed)")
     ap.add_argument("--keep", action="store_true", help="keep the reports in the working folder")
     ap.add_argument("--jobs", type=int, default=1, help="seeds run at once (default 1)")
-    ap.add_argument("--fitters", default="lugre-fit,dynfit")
-    ap.add_argument("--truths", default="lugre,stribeck")
+    ap.add_argument("--fitters", default="lugre-fit,dynfit", help="lugre-fit and/or dynfit (default both)")
+    ap.add_argument("--truths", default="lugre,stribeck",
+                    help="true friction models: lugre, stribeck, coulomb-viscous, none (default lugre,stribeck)")
     ap.add_argument("--dynfit-duration", type=float, default=60.0, help="mo-dynfit's log, s (default 60)")
     ap.add_argument("--sim-options", default="", help="more options for mo-sim (e.g. --velocity-noise 0)")
     ap.add_argument("--fit-options", default="", help="more options for the fitters")
     ap.add_argument("--per-parameter", action="store_true", help="the per-parameter table (default when --seeds >= 8)")
-    ap.add_argument("--require", action="append", default=[], metavar="FITTER/TRUTH:K=SHARE")
+    ap.add_argument("--require", action="append", default=[], metavar="FITTER/TRUTH:K=SHARE",
+                    help="exit 1 when the share within K uncertainties is below SHARE (0..1)")
     ap.add_argument("--json", help="write every z to FILE")
     args = ap.parse_args()
     fitters = [f for f in args.fitters.split(",") if f]
