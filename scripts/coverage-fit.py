@@ -17,7 +17,8 @@ that has a counterpart in the simulator's true friction or URDF with the truth:
              rad/s), its uncertainty propagated from the reported covariance and the signed
              systematic shifts.
   dynfit     the excitation (mo-sim --trajectory excite: the same motion for every seed, so that
-             the base parameters are the same combinations) for 60 s at 1 kHz, fitted with mo-dynfit
+             the base parameters are the same combinations) for 60 s (--dynfit-duration) at 1 kHz,
+             fitted with mo-dynfit
              --torque-held with the true profile as the nominal one (the estimator is linear:
              the nominal model does not move the unprojected estimate). Compared: every base
              parameter (its direction applied to the URDF's standard parameters), and the
@@ -228,7 +229,7 @@ def dynfit_seed(args, truth, profile_path, profile, seed, work):
     log = os.path.join(work, f"dyn-{truth}-{seed}.csv")
     report = os.path.join(work, f"dyn-{truth}-{seed}.json")
     n = nice()
-    cmd = (f"{n}{tool(args, 'mo-sim')} -q -p {profile_path} --trajectory excite --duration 60 --seed {seed} {args.sim_options} "
+    cmd = (f"{n}{tool(args, 'mo-sim')} -q -p {profile_path} --trajectory excite --duration {args.dynfit_duration:g} --seed {seed} {args.sim_options} "
            f"-o {log} && {n}{tool(args, 'mo-dynfit')} -q -p {profile_path} --torque-held --seed {seed} {args.fit_options} {log} "
            f"--report {report}")
     status, err = run(cmd)
@@ -267,7 +268,7 @@ def share(zs, k):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0] + " See the top of this file.",
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=20, help="number of seeds (default 20)")
     ap.add_argument("--seed", type=int, default=1, help="first seed (default 1)")
@@ -275,12 +276,15 @@ def main():
     ap.add_argument("--work", help="working folder (default: a temporary one, removed)")
     ap.add_argument("--keep", action="store_true", help="keep the reports in the working folder")
     ap.add_argument("--jobs", type=int, default=1, help="seeds run at once (default 1)")
-    ap.add_argument("--fitters", default="lugre-fit,dynfit")
-    ap.add_argument("--truths", default="lugre,stribeck")
+    ap.add_argument("--fitters", default="lugre-fit,dynfit", help="lugre-fit and/or dynfit (default both)")
+    ap.add_argument("--truths", default="lugre,stribeck",
+                    help="true friction models: lugre, stribeck, coulomb-viscous, none (default lugre,stribeck)")
+    ap.add_argument("--dynfit-duration", type=float, default=60.0, help="mo-dynfit's log, s (default 60)")
     ap.add_argument("--sim-options", default="", help="more options for mo-sim (e.g. --velocity-noise 0)")
     ap.add_argument("--fit-options", default="", help="more options for the fitters")
     ap.add_argument("--per-parameter", action="store_true", help="the per-parameter table (default when --seeds >= 8)")
-    ap.add_argument("--require", action="append", default=[], metavar="FITTER/TRUTH:K=SHARE")
+    ap.add_argument("--require", action="append", default=[], metavar="FITTER/TRUTH:K=SHARE",
+                    help="exit 1 when the share within K uncertainties is below SHARE (0..1)")
     ap.add_argument("--json", help="write every z to FILE")
     args = ap.parse_args()
     fitters = [f for f in args.fitters.split(",") if f]

@@ -12,8 +12,8 @@
 // Pipeline per joint: a global search over the parameter box (genetic algorithm by default,
 // or an NLopt global), then a Ceres polish (bounded trust region, Levenberg-Marquardt,
 // automatic derivatives with ceres::Jet through the friction recursion and the filter), then
-// the covariance of the estimate (ceres::Covariance, scaled by the residual variance and by the
-// residuals' autocorrelation) giving standard errors, correlations and identifiability flags.
+// the covariance of the estimate (a Newey-West sandwich over the observer's settling time or
+// longer, see friction_fit.cpp) giving standard errors, correlations and identifiability flags.
 #pragma once
 
 #include <array>
@@ -159,8 +159,8 @@ struct ModelFit {
   std::uint64_t polish_jacobian_evaluations = 0;
   std::string polish_message;
   // Covariance diagnostics: condition number of the Jacobian with unit-norm columns
-  // (infinite when rank deficient), and the factor the residuals' autocorrelation multiplied
-  // the variances by (1 for white residuals).
+  // (infinite when rank deficient), and the geometric mean over the free parameters of the
+  // sandwich variance over the white-noise variance (about 1 for white residuals).
   double condition_number = std::numeric_limits<double>::quiet_NaN();
   double autocorrelation_factor = 1;
   double velocity_noise = 0;  // estimated white noise of the measured velocity, rad/s
