@@ -161,7 +161,9 @@ TEST(FrictionFit, FlagsBristleDampingAt125HzWithReason) {
   EXPECT_NE(s1.note.find("125 Hz"), std::string::npos) << s1.note;
   EXPECT_NE(s1.note.find("reversal"), std::string::npos) << s1.note;
   const auto& s0 = r.model.estimates[0];
-  if (s0.identifiable) EXPECT_LT(std::abs(s0.value - kTable1[0].sigma0), 3 * s0.uncertainty);
+  if (s0.identifiable) {
+    EXPECT_LT(std::abs(s0.value - kTable1[0].sigma0), 3 * s0.uncertainty);
+  }
 }
 
 // The second-order observer (high-pass K2) changes r completely; the fit follows it.
