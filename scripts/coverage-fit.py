@@ -50,7 +50,6 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import xml.etree.ElementTree as ET
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOURCE = os.path.dirname(HERE)
@@ -92,52 +91,15 @@ def truth_profile(model, work):
     return path, profile
 
 
-# --- the URDF's standard parameters (as tests/cli/mo-dynfit/check_recovery.py computes them) ---
+# --- the URDF's standard parameters: the recovery check's reader, independent of the library ---
 
-def vec(text):
-    return [float(x) for x in (text or "0 0 0").split()]
+sys.path.insert(0, os.path.join(SOURCE, "tests", "cli", "mo-dynfit"))
+from check_recovery import NAMES, standard_parameters as body_parameters  # noqa: E402
 
 
 def standard_parameters(urdf_path):
-    """Per moving body: m, m c, and the inertia about the body origin (links on fixed joints
-    merged into their moving parent; every origin must have rpy 0)."""
-    root = ET.parse(urdf_path).getroot()
-    links = {l.get("name"): l for l in root.findall("link")}
-    parent_of = {j.find("child").get("link"): j for j in root.findall("joint")}
-    bodies = {}
-    for name, link in links.items():
-        offset = [0.0, 0.0, 0.0]
-        body = name
-        while body in parent_of and parent_of[body].get("type") == "fixed":
-            j = parent_of[body]
-            origin = j.find("origin")
-            if origin is not None:
-                assert vec(origin.get("rpy")) == [0, 0, 0]
-                offset = [a + b for a, b in zip(offset, vec(origin.get("xyz")))]
-            body = j.find("parent").get("link")
-        if body not in parent_of:
-            continue
-        inertial = link.find("inertial")
-        if inertial is None:
-            continue
-        origin = inertial.find("origin")
-        c = [0.0, 0.0, 0.0]
-        if origin is not None:
-            assert vec(origin.get("rpy")) == [0, 0, 0]
-            c = vec(origin.get("xyz"))
-        c = [a + b for a, b in zip(c, offset)]
-        m = float(inertial.find("mass").get("value"))
-        i = inertial.find("inertia")
-        I = {k: float(i.get(k)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
-        cc = sum(x * x for x in c)
-        theta = {"m": m, "mx": m * c[0], "my": m * c[1], "mz": m * c[2],
-                 "ixx": I["ixx"] + m * (cc - c[0] * c[0]), "ixy": I["ixy"] - m * c[0] * c[1],
-                 "ixz": I["ixz"] - m * c[0] * c[2], "iyy": I["iyy"] + m * (cc - c[1] * c[1]),
-                 "iyz": I["iyz"] - m * c[1] * c[2], "izz": I["izz"] + m * (cc - c[2] * c[2])}
-        into = bodies.setdefault(body, {k: 0.0 for k in theta})
-        for k, v in theta.items():
-            into[k] += v
-    return bodies
+    """{moving body: {"m": .., "mx": .., ..., "izz": ..}}, about the body (joint) origin."""
+    return {body: dict(zip(NAMES, theta)) for body, theta in body_parameters(urdf_path).items()}
 
 
 # --- running the tools ---
@@ -165,6 +127,19 @@ def steady_friction(p, v):
     return f, grad
 
 
+def fitted_report(args, cmd, report, scratch, what):
+    """Runs cmd, which writes the JSON report `report`, and returns the report; the scratch file
+    goes, and the report too unless --keep."""
+    status, err = run(cmd)
+    if not os.path.exists(report):
+        raise RuntimeError(f"{what}: exit {status}: {err.strip()}")
+    fit = json.load(open(report))
+    os.remove(scratch)
+    if not args.keep:
+        os.remove(report)
+    return fit
+
+
 def lugre_fit_seed(args, truth, profile_path, profile, seed, work):
     obs = os.path.join(work, f"lugre-{truth}-{seed}.csv")
     report = os.path.join(work, f"lugre-{truth}-{seed}.json")
@@ -173,13 +148,7 @@ def lugre_fit_seed(args, truth, profile_path, profile, seed, work):
            f"{n}{tool(args, 'mo-observe')} -q -p {profile_path} > {obs} && "
            f"{n}{tool(args, 'mo-lugre-fit')} -q -p {profile_path} --skip 1 --no-static --threads 1 "
            f"--seed {seed} {args.fit_options} {obs} --report {report}")
-    status, err = run(cmd)
-    if not os.path.exists(report):
-        raise RuntimeError(f"lugre-fit seed {seed} ({truth}): exit {status}: {err.strip()}")
-    fit = json.load(open(report))
-    os.remove(obs)
-    if not args.keep:
-        os.remove(report)
+    fit = fitted_report(args, cmd, report, obs, f"lugre-fit seed {seed} ({truth})")
     true_joints = profile["simulation"]["friction"]["joints"]
     rows = []
     for entry in fit["joints"]:
@@ -232,13 +201,7 @@ def dynfit_seed(args, truth, profile_path, profile, seed, work):
     cmd = (f"{n}{tool(args, 'mo-sim')} -q -p {profile_path} --trajectory excite --duration {args.dynfit_duration:g} --seed {seed} {args.sim_options} "
            f"-o {log} && {n}{tool(args, 'mo-dynfit')} -q -p {profile_path} --torque-held --seed {seed} {args.fit_options} {log} "
            f"--report {report}")
-    status, err = run(cmd)
-    if not os.path.exists(report):
-        raise RuntimeError(f"dynfit seed {seed} ({truth}): exit {status}: {err.strip()}")
-    fit = json.load(open(report))
-    os.remove(log)
-    if not args.keep:
-        os.remove(report)
+    fit = fitted_report(args, cmd, report, log, f"dynfit seed {seed} ({truth})")
     theta = standard_parameters(profile["urdf"])
     rows = []
     for k, base in enumerate(fit["base"]):
