@@ -7,6 +7,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/events_json.hpp"
+#include "momentum/eval/score.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -15,6 +16,42 @@ using namespace momentum;
 
 // Fewer good rows than this cannot show a joint's usual band (a second at 100 Hz): refused.
 constexpr std::uint64_t kMinimumRows = 100;
+
+// --classes: learns the contact/collision rule from a labelled campaign's events and stores it
+// beside the thresholds, which stay as they are.
+int learn_classes(const cli::Tool& tool, const std::string& classes_path, const std::string& truth_path,
+                  const std::string& output, const std::string& signals_option, bool dry_run) {
+  if (!tool.inputs().empty()) throw cli::UsageError("--classes learns from events, not from residual streams");
+  if (tool.profile().empty()) throw cli::UsageError("--classes needs a profile (-p) to update");
+  std::unique_ptr<core::FileLock> lock;
+  if (output.empty() && !dry_run) lock = cli::lock_for_update(tool.profile());
+  const model::Profile profile = model::load_profile(tool.profile());
+  const auto detections = eval::read_detections(classes_path, tool.strict());
+  const auto examples = eval::class_examples(eval::read_truth(truth_path), detections, {});
+  if (examples.empty())
+    throw Error(classes_path + ": no event with a pulse width matches a contact of " + truth_path +
+                " (run mo-detect with a profile that has a URDF, on a stream with q)");
+  const contact::ClassRule learnt = contact::learn_rule(examples, examples.front().peaks.size());
+  const std::string signal = signals_option.empty() ? "mu" : signals_option;
+  std::fprintf(output == "-" ? stderr : stdout,
+               "classes: %d contacts, %d collisions; a pulse narrower than %.3f s is a collision; %.1f%% right on "
+               "these examples\n",
+               learnt.contacts, learnt.collisions, learnt.width, 100 * learnt.accuracy);
+  if (dry_run) return cli::kSuccess;
+  nlohmann::json document = profile.document;
+  if (!document.contains("thresholds") || !document["thresholds"].contains(signal))
+    throw Error(tool.profile() + ": no thresholds for " + signal + " to classify with (calibrate them first)");
+  document["thresholds"][signal]["classify"] = contact::rule_to_json(learnt);
+  model::append_provenance(document, "mo-calibrate",
+                           {{"classes", classes_path}, {"truth", truth_path}, {"examples", examples.size()}});
+  const std::string destination = output.empty() ? tool.profile() : output;
+  if (destination == "-") {
+    std::cout << document.dump(2) << "\n";
+    return cli::kSuccess;
+  }
+  model::save_profile_as(document, profile, destination);
+  return cli::kSuccess;
+}
 
 int main(int argc, char** argv) {
   cli::Tool tool("mo-calibrate", "Collision thresholds per joint from collision-free motion, into the profile.");
@@ -70,7 +107,16 @@ int main(int argc, char** argv) {
   app.add_option("--format", format, "report as text (default) or jsonl: one JSON object per line")
       ->check(CLI::IsMember({"text", "jsonl"}));
 
+  std::string classes_path, truth_path;
+  auto* classes_option =
+      app.add_option("--classes", classes_path, "learn contact/collision from mo-detect's events of a labelled campaign")
+          ->type_name("EVENTS");
+  auto* truth_option = app.add_option("--truth", truth_path, "with --classes: the campaign's truth")->type_name("FILE");
+  classes_option->needs(truth_option);
+  truth_option->needs(classes_option);
+
   return tool.run(argc, argv, [&] {
+    if (!classes_path.empty()) return learn_classes(tool, classes_path, truth_path, output, signals_option, dry_run);
     if (*margin_option) options.margin_nm = margin;
     options.rule = detect::parse_threshold_rule(rule);
     if (!drift_list.empty()) options.rest_drift_candidates = cli::parse_number_list(drift_list, "--rest-drift");

@@ -15,10 +15,12 @@
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/contact/event_contact.hpp"
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/detector.hpp"
 #include "momentum/detect/events_json.hpp"
 #include "momentum/detect/live.hpp"
+#include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -55,8 +57,8 @@ int main(int argc, char** argv) {
   tool.add_inputs("input stream (- or none: stdin)");
   tool.add_stream_output();
   tool.add_profile(/*required=*/false);
-  std::string signal_option, threshold_list, events_path, command;
-  bool constant = false, pass = false, stats = false;
+  std::string signal_option, threshold_list, events_path, command, contact_command;
+  bool constant = false, pass = false, stats = false, no_identify = false, any_class = false;
   detect::DetectorOptions options;
   double onset_band = 0;
   auto& app = tool.app();
@@ -79,7 +81,11 @@ int main(int argc, char** argv) {
       ->type_name("SECONDS");
   app.add_flag("--pass", pass, "pass the stream through with a collision column instead of events");
   app.add_option("--events", events_path, "with --pass: also write the events to FILE")->type_name("FILE");
-  app.add_option("--on-collision", command, "run CMD (sh -c) per event, without waiting")->type_name("CMD");
+  app.add_option("--on-collision", command, "run CMD (sh -c) per collision once classified, without waiting")
+      ->type_name("CMD");
+  app.add_option("--on-contact", contact_command, "run CMD (sh -c) per contact once classified")->type_name("CMD");
+  app.add_flag("--any-class", any_class, "--on-collision runs for every event at its detection");
+  app.add_flag("--no-identify", no_identify, "no contact point, force or class (not even with a model and q)");
   app.add_flag("--stats", stats, "print rows, events and per-row latency on stderr at the end");
   std::string format = "csv";
   app.add_option("--format", format, "events as csv (default) or jsonl: one JSON object per row")
@@ -156,6 +162,22 @@ int main(int argc, char** argv) {
       }
       detect::Detector detector(thresholds, options, !idq.empty());
 
+      // Identification needs the chain (the profile's URDF) and the joint positions.
+      std::optional<model::Model> chain;
+      std::optional<contact::EventContact> identify;
+      std::vector<std::size_t> iq;
+      if (!no_identify && !tool.profile().empty() && stream::count_joint_columns(in->columns(), "q") >= n) {
+        const auto profile = model::load_profile(tool.profile());
+        if (!profile.urdf.empty()) {
+          chain.emplace(model::build_model(profile));
+          if (static_cast<std::size_t>(chain->nq) == n) {
+            iq = stream::column_indices(in->columns(), stream::joint_columns("q", n), in->name());
+            identify.emplace(*chain, thresholds,
+                             contact::rule_from_profile(profile.document, prefix, n, tool.profile()));
+          }
+        }
+      }
+
       std::unique_ptr<stream::Writer> passed;
       std::unique_ptr<detect::EventWriter> events;
       std::unique_ptr<detect::JsonLinesWriter> json_events;
@@ -178,22 +200,27 @@ int main(int argc, char** argv) {
         stream::Writer* raw = passed.get();
         in->on_comment([raw](std::string_view c) { raw->comment(c); });
         if (!events_path.empty() && jsonl) json_events = std::make_unique<detect::JsonLinesWriter>(events_path);
-        else if (!events_path.empty()) events = std::make_unique<detect::EventWriter>(events_path, n, comments);
+        else if (!events_path.empty())
+          events = std::make_unique<detect::EventWriter>(events_path, n, comments, identify.has_value());
       } else if (jsonl) {
         json_events = std::make_unique<detect::JsonLinesWriter>(tool.output());
       } else {
-        events = std::make_unique<detect::EventWriter>(tool.output(), n, comments);
+        events = std::make_unique<detect::EventWriter>(tool.output(), n, comments, identify.has_value());
       }
       stream::Writer* raw = passed.get();
       in->before_read([raw, poll_fd, &watch] {
         if (raw && raw->interactive()) raw->flush();
         if (poll_fd >= 0 && !watch.wait_readable(poll_fd)) throw detect::Interrupted();
       });
-      std::optional<detect::CommandRunner> runner;
+      std::optional<detect::CommandRunner> runner, contact_runner;
       if (!command.empty()) runner.emplace(command);
+      if (!contact_command.empty()) contact_runner.emplace(contact_command);
+      // Without a class rule every event counts as a collision for the hook, at detection.
+      const bool hooks_on_class = identify && identify->classifies() && !any_class;
+      detect::Event open_event;
 
       detect::LogHistogram latency(1e-3, 1e7, 200);
-      std::vector<double> x(n), dq(n), x_rest(n), out(in->columns().size() + 1);
+      std::vector<double> x(n), dq(n), x_rest(n), q(n), out(in->columns().size() + 1);
       double t_prev = -INFINITY;
       bool interrupted = false;
       using clock = std::chrono::steady_clock;
@@ -225,11 +252,22 @@ int main(int argc, char** argv) {
         for (std::size_t j = 0; j < n; ++j) x[j] = row[ix[j]];
         for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
         for (std::size_t j = 0; j < irest.size(); ++j) x_rest[j] = row[irest[j]];
-        for (const detect::Event& e : detector.step(t, x.data(), dq.data(), irest.empty() ? nullptr : x_rest.data())) {
+        for (std::size_t j = 0; j < iq.size(); ++j) q[j] = row[iq[j]];
+        if (identify) identify->add(t, q.data(), x.data());
+        for (detect::Event e : detector.step(t, x.data(), dq.data(), irest.empty() ? nullptr : x_rest.data())) {
+          if (identify) identify->annotate(e);
           write_event(e);
           if (e.kind == detect::EventKind::onset) {
             ++collisions;
-            if (runner) runner->launch(e);
+            open_event = e;
+            if (runner && !hooks_on_class) runner->launch(e);
+          }
+        }
+        if (hooks_on_class) {
+          if (const auto decided = identify->decide()) {
+            open_event.contact.event_class = std::string(contact::class_name(*decided));
+            auto& hook = *decided == contact::EventClass::collision ? runner : contact_runner;
+            if (hook) hook->launch(open_event);
           }
         }
         if (passed) {
@@ -238,6 +276,7 @@ int main(int argc, char** argv) {
           passed->row(out.data());
         }
         if (runner && runner->running()) runner->reap();
+        if (contact_runner && contact_runner->running()) contact_runner->reap();
         latency.add(std::chrono::duration<double, std::micro>(clock::now() - start).count());
         if (watch.signal() != 0) {  // stop reading; rows already read are still detected on
           interrupted = true;
@@ -249,6 +288,7 @@ int main(int argc, char** argv) {
       }
       if (passed) passed->close();
       if (runner) runner->wait_all();
+      if (contact_runner) contact_runner->wait_all();
       if (own_fd >= 0) ::close(own_fd);
       if (stats) {
         std::fprintf(stderr, "mo-detect: %" PRIu64 " rows, %" PRIu64 " bad rows skipped, %" PRIu64 " events%s\n",

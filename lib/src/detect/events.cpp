@@ -40,6 +40,17 @@ std::vector<std::string_view> split_fields(std::string_view line) {
 
 using core::trim;
 
+// The contact columns, in order (event_header's documentation).
+constexpr const char* kContactColumns[] = {"class", "rise", "width",  "f",       "fx",  "fy",   "fz", "f_sd",
+                                           "px",    "py",   "pz",     "p_sd",    "f_peak", "impulse", "fit", "seen"};
+constexpr std::size_t kContactNumbers = 14;  // columns 1..14 are numbers, 0 and 15 words
+
+double* contact_number(Event::Contact& c, std::size_t k) {
+  double* fields[kContactNumbers] = {&c.rise, &c.width, &c.force, &c.fx,       &c.fy,         &c.fz,      &c.force_sd,
+                                     &c.px,   &c.py,    &c.pz,    &c.point_sd, &c.peak_force, &c.impulse, &c.fit};
+  return fields[k];
+}
+
 }  // namespace
 
 std::string_view kind_name(EventKind kind) { return kind == EventKind::onset ? "onset" : "end"; }
@@ -55,13 +66,15 @@ std::string_view end_reason_name(EndReason reason) {
   return "";
 }
 
-std::string event_header(std::size_t joints) {
+std::string event_header(std::size_t joints, bool contact) {
   std::string header = "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by";
   for (std::size_t j = 1; j <= joints; ++j) header += ",peak" + std::to_string(j);
+  if (contact)
+    for (const char* column : kContactColumns) header += std::string(",") + column;
   return header;
 }
 
-std::string format_event(const Event& e) {
+std::string format_event(const Event& e, bool contact) {
   std::string line;
   line.reserve(64 + 24 * e.peaks.size());
   append_number(line, e.t_onset_estimate);
@@ -86,13 +99,25 @@ std::string format_event(const Event& e) {
     line += ',';
     append_number(line, p);
   }
+  if (contact) {
+    Event::Contact c = e.contact;
+    line += ',';
+    line += c.event_class;
+    for (std::size_t k = 0; k < kContactNumbers; ++k) {
+      line += ',';
+      if (const double v = *contact_number(c, k); !std::isnan(v)) append_number(line, v);
+    }
+    line += ',';
+    line += c.seen;
+  }
   return line;
 }
 
 // ---- writer ----------------------------------------------------------------------------
 
-EventWriter::EventWriter(const std::string& path, std::size_t joints, const std::vector<std::string>& comments)
-    : joints_(joints) {
+EventWriter::EventWriter(const std::string& path, std::size_t joints, const std::vector<std::string>& comments,
+                         bool contact)
+    : joints_(joints), contact_(contact) {
   const bool to_stdout = path.empty() || path == "-";
   name_ = to_stdout ? "<stdout>" : path;
   fd_ = to_stdout ? STDOUT_FILENO : ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
@@ -100,7 +125,7 @@ EventWriter::EventWriter(const std::string& path, std::size_t joints, const std:
   owns_ = !to_stdout;
   std::string head;
   for (const auto& c : comments) head += "#" + c + "\n";
-  head += event_header(joints) + "\n";
+  head += event_header(joints, contact) + "\n";
   put(head);
 }
 
@@ -112,7 +137,7 @@ void EventWriter::write(const Event& event) {
   if (event.peaks.size() != joints_)
     throw Error(name_ + ": event with " + std::to_string(event.peaks.size()) + " peaks, header has " +
                 std::to_string(joints_));
-  put(format_event(event) + "\n");
+  put(format_event(event, contact_) + "\n");
   ++rows_;
 }
 
@@ -177,6 +202,7 @@ std::unique_ptr<EventReader> EventReader::open(const std::string& path) {
     reader->c_peaks_.push_back(i);
   }
   reader->joints_ = reader->c_peaks_.size();
+  for (const char* column : kContactColumns) reader->c_contact_.push_back(find(column));
   return reader;
 }
 
@@ -267,6 +293,17 @@ std::optional<Event> EventReader::next() {
     else if (!by.empty()) throw fail("bad ended_by '" + core::printable(by) + "'");
   }
   for (std::size_t c : c_peaks_) e.peaks.push_back(number(c, "peak"));
+  if (c_contact_.front() != npos) {
+    const std::string_view event_class = trim(fields[c_contact_.front()]);
+    if (!event_class.empty() && event_class != "contact" && event_class != "collision")
+      throw fail("bad class '" + core::printable(event_class) + "' (contact, collision or empty)");
+    e.contact.event_class = std::string(event_class);
+  }
+  for (std::size_t k = 0; k < kContactNumbers; ++k) {
+    const std::size_t c = c_contact_[k + 1];
+    if (c != npos && !trim(fields[c]).empty()) *contact_number(e.contact, k) = number(c, kContactColumns[k + 1]);
+  }
+  if (c_contact_.back() != npos) e.contact.seen = std::string(trim(fields[c_contact_.back()]));
   return e;
 }
 

@@ -46,6 +46,22 @@ nlohmann::json event_json(const Event& event, const std::string& source, const n
   nlohmann::json peaks = nlohmann::json::array();
   for (const double p : event.peaks) peaks.push_back(number(p));
   const bool end = event.kind == EventKind::end;
+  const Event::Contact& c = event.contact;
+  auto word = [](const std::string& w) { return w.empty() ? nlohmann::json(nullptr) : nlohmann::json(w); };
+  nlohmann::json contact = {{"class", word(c.event_class)},
+                            {"rise", number(c.rise)},
+                            {"width", number(c.width)},
+                            {"force", number(c.force)},
+                            {"force_sd", number(c.force_sd)},
+                            {"force_world", std::isnan(c.fx) ? nlohmann::json(nullptr)
+                                                             : nlohmann::json{number(c.fx), number(c.fy), number(c.fz)}},
+                            {"point", std::isnan(c.px) ? nlohmann::json(nullptr)
+                                                       : nlohmann::json{number(c.px), number(c.py), number(c.pz)}},
+                            {"point_sd", number(c.point_sd)},
+                            {"peak_force", number(c.peak_force)},
+                            {"impulse", number(c.impulse)},
+                            {"fit", number(c.fit)},
+                            {"seen", word(c.seen)}};
   return {{"event", event.id},
           {"kind", std::string(kind_name(event.kind))},
           {"t_onset_estimate", number(event.t_onset_estimate)},
@@ -55,6 +71,7 @@ nlohmann::json event_json(const Event& event, const std::string& source, const n
           {"t_end", end ? number(event.t_end) : nlohmann::json(nullptr)},
           {"ended_by", end ? nlohmann::json(std::string(end_reason_name(event.ended_by))) : nlohmann::json(nullptr)},
           {"peaks", peaks},
+          {"contact", contact},
           {"source", source},
           {"profile", profile},
           {"signal", std::string(signal_name(thresholds.signal))},

@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 
 #include "momentum/core/number.hpp"
@@ -94,6 +95,14 @@ void CommandRunner::launch(const Event& event) {
   env.push_back("MOMENTUM_T_ONSET=" + number_text(event.t_onset_estimate));
   env.push_back("MOMENTUM_T_DETECT=" + number_text(event.t_detect));
   env.push_back("MOMENTUM_PEAKS=" + peaks);
+  // What identification found by then (empty when unknown).
+  auto known = [](double v) { return std::isnan(v) ? std::string() : number_text(v); };
+  env.push_back("MOMENTUM_CLASS=" + event.contact.event_class);
+  env.push_back("MOMENTUM_FORCE=" + known(event.contact.force));
+  env.push_back("MOMENTUM_POINT=" + (std::isnan(event.contact.px) ? std::string()
+                                                                   : number_text(event.contact.px) + " " +
+                                                                         number_text(event.contact.py) + " " +
+                                                                         number_text(event.contact.pz)));
   std::vector<char*> envp;
   for (auto& e : env) envp.push_back(e.data());
   envp.push_back(nullptr);

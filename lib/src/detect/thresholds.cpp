@@ -180,7 +180,12 @@ void store_thresholds(nlohmann::json& document, const Thresholds& t) {
   if (section.is_null()) section = nlohmann::json::object();
   if (!section.is_object())
     throw Error("profile: \"thresholds\" must be an object, not " + std::string(section.type_name()));
-  section[std::string(signal_name(t.signal))] = thresholds_to_json(t);
+  auto& entry = section[std::string(signal_name(t.signal))];
+  // Sections other stages own (the contact classification rule) stay.
+  nlohmann::json kept = nlohmann::json::object();
+  if (entry.is_object() && entry.contains("classify")) kept["classify"] = entry["classify"];
+  entry = thresholds_to_json(t);
+  entry.update(kept);
 }
 
 Thresholds constant_thresholds(Signal signal, const std::vector<double>& values, std::size_t joints) {

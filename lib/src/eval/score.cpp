@@ -1,6 +1,7 @@
 #include "momentum/eval/score.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -91,7 +92,24 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
   std::vector<Detection> detections;
   std::vector<std::string> header;
   std::size_t c_detect = 0, c_link = 0;
-  std::optional<std::size_t> c_onset, c_kind, c_event;
+  std::optional<std::size_t> c_onset, c_kind, c_event, c_class;
+  std::vector<std::optional<std::size_t>> c_contact;  // f_peak, px, py, pz, width
+  std::vector<std::size_t> c_peaks;
+  // What identification found, from the event's last row read (the end row when there is one).
+  auto read_contact = [&](const std::vector<std::string>& fields, Detection& d) {
+    if (c_class) d.event_class = trim(fields[*c_class]);
+    double* targets[] = {&d.peak_force, &d.point.x(), &d.point.y(), &d.point.z(), &d.width};
+    for (std::size_t k = 0; k < c_contact.size(); ++k) {
+      *targets[k] = NAN;
+      if (const auto c = c_contact[k])
+        if (const auto v = stream::parse_double(trim(fields[*c]))) *targets[k] = *v;
+    }
+    d.peaks.clear();
+    for (std::size_t c : c_peaks) {
+      const auto v = stream::parse_double(trim(fields[c]));
+      d.peaks.push_back(v ? *v : NAN);
+    }
+  };
   std::map<std::string, std::size_t> event_index;  // event number -> index in detections
   std::string line;
   std::uint64_t number = 0;
@@ -119,6 +137,9 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
       c_onset = find("t_onset_estimate");
       c_kind = find("kind");
       c_event = find("event");
+      c_class = find("class");
+      for (const char* column : {"f_peak", "px", "py", "pz", "width"}) c_contact.push_back(find(column));
+      for (int j = 1; find(("peak" + std::to_string(j)).c_str()); ++j) c_peaks.push_back(*find(("peak" + std::to_string(j)).c_str()));
       continue;
     }
     if (fields.size() != header.size()) {
@@ -130,8 +151,10 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
       // The end row completes its event: the final link, over every joint that fired.
       const auto it = event_index.find(fields[*c_event]);
       const auto link = stream::parse_double(fields[c_link]);
-      if (it != event_index.end() && link && *link == std::floor(*link) && *link >= 0 && *link <= 1e6)
+      if (it != event_index.end() && link && *link == std::floor(*link) && *link >= 0 && *link <= 1e6) {
         detections[it->second].final_link = static_cast<int>(*link);
+        read_contact(fields, detections[it->second]);
+      }
       continue;
     }
     if (kind != "onset") continue;
@@ -157,6 +180,7 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
       const auto onset = stream::parse_double(fields[*c_onset]);
       if (onset) d.t_onset_estimate = *onset;
     }
+    read_contact(fields, d);
     if (c_event) event_index[fields[*c_event]] = detections.size();
     detections.push_back(d);
   }
@@ -178,6 +202,7 @@ Truth read_truth(const std::string& path) {
   const std::size_t c_onset = reader->require("t_onset"), c_end = reader->require("t_end"),
                     c_link = reader->require("link");
   const auto c_clamp = reader->find("clamp"), c_force = reader->find("f_peak");
+  const auto c_px = reader->find("px"), c_py = reader->find("py"), c_pz = reader->find("pz");
   std::vector<std::size_t> c_torques;
   for (int j = 1; reader->find("tau_peak" + std::to_string(j)); ++j) c_torques.push_back(*reader->find("tau_peak" + std::to_string(j)));
   while (const double* row = reader->next()) {
@@ -192,6 +217,7 @@ Truth read_truth(const std::string& path) {
     c.link = static_cast<int>(link);
     if (c_clamp) c.clamp = row[*c_clamp] != 0;
     if (c_force) c.peak_force = row[*c_force];
+    if (c_px && c_py && c_pz) c.point = {row[*c_px], row[*c_py], row[*c_pz]};
     for (std::size_t k = 0; k < c_torques.size(); ++k)
       c.peak_torque = k == 0 ? std::abs(row[c_torques[k]]) : std::max(c.peak_torque, std::abs(row[c_torques[k]]));
     truth.contacts.push_back(c);
@@ -215,6 +241,17 @@ bool ScoreOptions::IsValid(std::string* why) const {
     return false;
   }
   return true;
+}
+
+std::vector<contact::ClassExample> class_examples(const Truth& truth, const std::vector<Detection>& detections,
+                                                  const ScoreOptions& options) {
+  std::vector<contact::ClassExample> examples;
+  for (const auto& o : score(truth, detections, options).outcomes) {
+    if (o.detection < 0) continue;
+    const Detection& d = detections[static_cast<std::size_t>(o.detection)];
+    if (std::isfinite(d.width)) examples.push_back({d.width, d.peaks, o.contact.clamp});
+  }
+  return examples;
 }
 
 double percentile(std::vector<double> values, double p) {
@@ -246,6 +283,7 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
   const double w = options.window;
   for (const Detection* e : events) {
     const double t = e->t_detect;
+    const int index = static_cast<int>(e - detections.data());
     ContactOutcome* hit = nullptr;
     bool in_span = false;
     for (auto& o : s.outcomes) {
@@ -259,6 +297,12 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
       hit->reported_link = e->final_link;
       hit->link_at_detection = e->link;
       if (std::isfinite(e->t_onset_estimate)) hit->onset_error = e->t_onset_estimate - hit->contact.t_onset;
+      hit->detection = index;
+      hit->event_class = e->event_class;
+      if (std::isfinite(e->peak_force) && std::isfinite(hit->contact.peak_force))
+        hit->force_error = std::abs(e->peak_force - hit->contact.peak_force);
+      if (e->final_link == hit->contact.link && e->point.allFinite() && hit->contact.point.allFinite())
+        hit->point_error = (e->point - hit->contact.point).norm();
     } else if (in_span) {
       // Within some contact's span: a repeat when one there is detected, else late.
       bool any_detected = false;
@@ -275,6 +319,20 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
   std::vector<double> delays, onset_errors;
   std::map<int, std::vector<double>> link_delays;
   std::map<int, LinkScore> by_link;
+  // Errors of identification, over all contacts (key 0) and per link.
+  std::map<int, std::array<std::vector<double>, 3>> errors;  // force N, force %, point m
+  auto add_identification = [&](IdentificationStats& stats, std::array<std::vector<double>, 3>& e,
+                                const ContactOutcome& o) {
+    if (!o.event_class.empty()) {
+      ++stats.classified;
+      stats.class_right += (o.event_class == "collision") == o.contact.clamp;
+    }
+    if (std::isfinite(o.force_error)) {
+      e[0].push_back(o.force_error);
+      e[1].push_back(100 * o.force_error / o.contact.peak_force);
+    }
+    if (std::isfinite(o.point_error)) e[2].push_back(o.point_error);
+  };
   for (const auto& o : s.outcomes) {
     LinkScore& l = by_link[o.contact.link];
     l.link = o.contact.link;
@@ -290,12 +348,21 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     if (o.reported_link == o.contact.link) ++s.isolated, ++l.isolated;
     if (o.link_at_detection == o.contact.link) ++s.isolated_at_detection;
     if (std::isfinite(o.onset_error)) onset_errors.push_back(std::abs(o.onset_error));
+    add_identification(s.identification, errors[0], o);
+    add_identification(l.identification, errors[o.contact.link], o);
   }
+  auto finish_identification = [](IdentificationStats& stats, const std::array<std::vector<double>, 3>& e) {
+    stats.force_error = stats_of(e[0]);
+    stats.force_error_percent = stats_of(e[1]);
+    stats.point_error = stats_of(e[2]);
+  };
   s.missed = s.contacts - s.detected;
   s.delay = stats_of(delays);
   s.onset_error = stats_of(onset_errors);
+  finish_identification(s.identification, errors[0]);
   for (auto& [link, l] : by_link) {
     l.delay = stats_of(link_delays[link]);
+    finish_identification(l.identification, errors[link]);
     s.by_link.push_back(l);
   }
 
@@ -350,6 +417,21 @@ std::string format_table(const Score& s, bool list) {
                         percent(s.isolated_at_detection, s.detected) + ")");
   if (s.onset_error.count)
     line("onset error", "median " + ms(s.onset_error.median) + "  max " + ms(s.onset_error.max) + " ms");
+  const IdentificationStats& id = s.identification;
+  const bool identified = id.classified > 0 || id.force_error.count > 0;
+  auto median_text = [](const DelayStats& d, int digits, const char* unit) {
+    return d.count ? fixed(d.median, digits) + unit : std::string("-");
+  };
+  if (id.classified)
+    line("class", std::to_string(id.class_right) + " of " + std::to_string(id.classified) + " right (" +
+                      percent(id.class_right, id.classified) + ")");
+  if (id.force_error.count)
+    line("force error", "median " + fixed(id.force_error.median, 1) + " N (" +
+                            fixed(id.force_error_percent.median, 0) + "% of the peak), p95 " +
+                            fixed(id.force_error.p95, 1) + " N, over " + std::to_string(id.force_error.count));
+  if (id.point_error.count)
+    line("point error", "median " + fixed(id.point_error.median, 3) + " m, p95 " + fixed(id.point_error.p95, 3) +
+                            " m, over " + std::to_string(id.point_error.count) + " (right link, true point known)");
   if (!s.by_link.empty()) {
     out += "\nlink  contacts  detected  isolated  median delay\n";
     for (const auto& l : s.by_link) {
@@ -357,6 +439,16 @@ std::string format_table(const Score& s, bool list) {
       std::snprintf(buffer, sizeof buffer, "%4d  %8d  %8d  %8d  %9s ms\n", l.link, l.contacts, l.detected, l.isolated,
                     ms(l.delay.median).c_str());
       out += buffer;
+    }
+    if (identified) {
+      out += "\nlink  classified  class right  force error  point error\n";
+      for (const auto& l : s.by_link) {
+        const IdentificationStats& i = l.identification;
+        char buffer[120];
+        std::snprintf(buffer, sizeof buffer, "%4d  %10d  %11d  %11s  %11s\n", l.link, i.classified, i.class_right,
+                      median_text(i.force_error_percent, 0, " %").c_str(), median_text(i.point_error, 3, " m").c_str());
+        out += buffer;
+      }
     }
   }
   if (list) {
@@ -374,6 +466,10 @@ std::string format_table(const Score& s, bool list) {
                 (o.reported_link == o.contact.link ? "" : " (wrong)");
         if (o.link_at_detection != o.reported_link)
           text += ", link " + std::to_string(o.link_at_detection) + " at detection";
+        if (!o.event_class.empty())
+          text += ", " + o.event_class + ((o.event_class == "collision") == o.contact.clamp ? "" : " (wrong)");
+        if (std::isfinite(o.force_error)) text += ", force off by " + fixed(o.force_error, 1) + " N";
+        if (std::isfinite(o.point_error)) text += ", point off by " + fixed(o.point_error, 3) + " m";
       } else {
         text += ": MISSED";
       }
@@ -406,10 +502,19 @@ nlohmann::json to_json(const Score& s) {
   j["isolation_rate"] = s.detected ? nlohmann::json(double(s.isolated) / s.detected) : nlohmann::json(nullptr);
   j["isolated_at_detection"] = s.isolated_at_detection;
   j["onset_error_s"] = stats_json(s.onset_error);
+  auto identification_json = [](const IdentificationStats& i) -> nlohmann::json {
+    return {{"classified", i.classified},
+            {"class_right", i.class_right},
+            {"force_error_n", stats_json(i.force_error)},
+            {"force_error_percent", stats_json(i.force_error_percent)},
+            {"point_error_m", stats_json(i.point_error)}};
+  };
+  j["identification"] = identification_json(s.identification);
   j["by_link"] = nlohmann::json::array();
   for (const auto& l : s.by_link)
     j["by_link"].push_back({{"link", l.link}, {"contacts", l.contacts}, {"detected", l.detected},
-                            {"isolated", l.isolated}, {"delay_s", stats_json(l.delay)}});
+                            {"isolated", l.isolated}, {"delay_s", stats_json(l.delay)},
+                            {"identification", identification_json(l.identification)}});
   j["contacts_detail"] = nlohmann::json::array();
   for (const auto& o : s.outcomes)
     j["contacts_detail"].push_back({{"t_onset", o.contact.t_onset}, {"t_end", o.contact.t_end},
@@ -418,7 +523,10 @@ nlohmann::json to_json(const Score& s) {
                                     {"peak_torque", number_or_null(o.contact.peak_torque)},
                                     {"detected", o.detected}, {"delay_s", number_or_null(o.delay)},
                                     {"reported_link", o.reported_link},
-                                    {"link_at_detection", o.link_at_detection}});
+                                    {"link_at_detection", o.link_at_detection},
+                                    {"class", o.event_class.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.event_class)},
+                                    {"force_error_n", number_or_null(o.force_error)},
+                                    {"point_error_m", number_or_null(o.point_error)}});
   j["false_alarm_times"] = s.false_alarm_times;
   return j;
 }

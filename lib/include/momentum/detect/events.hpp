@@ -11,6 +11,7 @@
 // written the moment it is detected, and one end row; rows of different events never
 // interleave (an event ends before the next one opens).
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -50,12 +51,32 @@ struct Event {
   // Per joint, the peak |signal| (Nm) since the joint left its band or since detection,
   // whichever is earlier, up to this row. Size n (joints of the stream).
   std::vector<double> peaks;
+  // What contact identification and classification found (lib/src/contact; mo-detect with a
+  // model and joint positions), up to this row. Written in the contact columns; NaN and empty
+  // when unknown.
+  struct Contact {
+    std::string event_class;        // "contact", "collision", or "" (not classified)
+    double rise = NAN;              // s, onset estimate to 90% of the residual's peak
+    double width = NAN;             // s, time the residual stays above half its peak
+    double force = NAN;             // |F| at the strongest row, N
+    double force_sd = NAN;          // its standard deviation, N
+    double fx = NAN, fy = NAN, fz = NAN;  // F at the strongest row, world frame, N
+    double px = NAN, py = NAN, pz = NAN;  // contact point in the link's frame, m
+    double point_sd = NAN;          // m, along the link
+    double peak_force = NAN;        // largest |F|, N
+    double impulse = NAN;           // integral of |F|, N s
+    double fit = NAN;               // weighted residual sum of squares per degree of freedom
+    std::string seen;               // "point" (force and point determined), "force", "partial"
+  } contact;
 };
 
-// Header line of an event file for `joints` joints (no trailing newline).
-std::string event_header(std::size_t joints);
-// One event as a CSV line (no trailing newline); NaN t_end on onset rows is written empty.
-std::string format_event(const Event& event);
+// Header line of an event file for `joints` joints (no trailing newline); `contact`: with the
+// contact columns class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen after
+// the peaks.
+std::string event_header(std::size_t joints, bool contact = false);
+// One event as a CSV line (no trailing newline); NaN t_end on onset rows is written empty, as
+// is every unknown contact field.
+std::string format_event(const Event& event, bool contact = false);
 
 // Writes event rows to a file or stdout, flushing after every row so a consumer sees an event
 // the moment it is detected. Uses write(2); a closed reader (EPIPE) throws stream::BrokenPipe.
@@ -63,7 +84,9 @@ class EventWriter {
  public:
   // Opens `path` ("-" or "": stdout) and writes `comments` (each as '#' + text) and the header
   // for `joints` joints. Throws momentum::Error when the file cannot be created.
-  EventWriter(const std::string& path, std::size_t joints, const std::vector<std::string>& comments);
+  // `contact`: with the contact columns.
+  EventWriter(const std::string& path, std::size_t joints, const std::vector<std::string>& comments,
+              bool contact = false);
   ~EventWriter();
   EventWriter(const EventWriter&) = delete;
   EventWriter& operator=(const EventWriter&) = delete;
@@ -79,6 +102,7 @@ class EventWriter {
   bool owns_ = false;
   std::string name_;
   std::size_t joints_ = 0;
+  bool contact_ = false;
   std::uint64_t rows_ = 0;
 };
 
@@ -116,6 +140,7 @@ class EventReader {
   std::size_t c_onset_ = 0, c_detect_ = 0, c_link_ = 0, c_joints_ = 0, c_kind_ = 0, c_id_ = 0;
   std::size_t c_end_ = 0, c_ended_by_ = 0;
   std::vector<std::size_t> c_peaks_;
+  std::vector<std::size_t> c_contact_;  // the contact columns in header order (npos: absent)
 };
 
 // Reads a whole event file and returns its end rows (one per event, with the final joints,

@@ -104,7 +104,7 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
 nlohmann::json thresholds_to_json(const Thresholds& thresholds);
 
 // Stores `thresholds` under document["thresholds"][signal], replacing the previous entry for
-// that signal and keeping the others. Throws momentum::Error when "thresholds" exists and is
+// that signal (but its "classify" rule, which contact/classify.hpp owns) and keeping the others. Throws momentum::Error when "thresholds" exists and is
 // not an object.
 void store_thresholds(nlohmann::json& document, const Thresholds& thresholds);
 

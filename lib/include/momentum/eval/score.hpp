@@ -17,6 +17,9 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
+#include "momentum/contact/classify.hpp"
 #include <nlohmann/json.hpp>
 
 namespace momentum::eval {
@@ -28,14 +31,22 @@ struct Detection {
   int link = 0;                  // isolated link at detection (onset row), 1..n; 0: unknown
   int final_link = 0;            // isolated link over the whole event (end row), else = link
   std::string where;             // file:line, for messages
+  // Identification and classification (mo-detect's contact columns), from the end row when
+  // there is one; NaN / empty when the file has none.
+  std::string event_class;       // "contact", "collision", ""
+  double peak_force = NAN;       // N
+  Eigen::Vector3d point{NAN, NAN, NAN};  // in the final link's frame, m
+  double width = NAN;            // s, the residual's pulse width
+  std::vector<double> peaks;     // per joint, Nm
 };
 
 // One true contact, from mo-sim's --truth file.
 struct TruthContact {
   double t_onset = 0, t_end = 0;  // s
   int link = 0;                   // 1..n
-  bool clamp = false;
+  bool clamp = false;             // an obstacle met (a collision), else a push (a contact)
   double peak_force = NAN;        // N, NaN when the file has no f_peak column
+  Eigen::Vector3d point{NAN, NAN, NAN};  // contact point in its link's frame (px, py, pz), m
   // Largest |tau_peak<j>| over the joints, Nm (NaN without such columns): how hard the contact
   // could move any residual; a contact far below the thresholds is undetectable by design.
   double peak_torque = NAN;
@@ -80,6 +91,10 @@ struct ContactOutcome {
   int reported_link = 0;            // final link of the detecting event
   int link_at_detection = 0;        // link of its onset row
   double onset_error = NAN;         // t_onset_estimate - t_onset, s (when given)
+  int detection = -1;               // index of the detecting event in score()'s detections
+  std::string event_class;          // the detecting event's class ("" when not classified)
+  double force_error = NAN;         // |estimated - true peak force|, N (when both are known)
+  double point_error = NAN;         // |estimated - true point|, m (when both are known, link right)
 };
 
 struct DelayStats {
@@ -87,10 +102,19 @@ struct DelayStats {
   double min = NAN, median = NAN, p95 = NAN, max = NAN, mean = NAN;  // s
 };
 
+// Medians of identification's errors over the detected contacts where they are known.
+struct IdentificationStats {
+  int classified = 0, class_right = 0;  // detected contacts with a class, and with the true one
+  DelayStats force_error;               // N
+  DelayStats force_error_percent;       // % of the true peak force
+  DelayStats point_error;               // m
+};
+
 struct LinkScore {
   int link = 0;
   int contacts = 0, detected = 0, isolated = 0;
   DelayStats delay;
+  IdentificationStats identification;
 };
 
 struct Score {
@@ -106,6 +130,7 @@ struct Score {
   int isolated = 0;                          // detected contacts with the right final link
   int isolated_at_detection = 0;             // ... with the right link on the onset row
   DelayStats onset_error;                    // |t_onset_estimate - t_onset|, when given
+  IdentificationStats identification;        // class, force and point against the truth
   std::vector<LinkScore> by_link;            // ascending link
   std::vector<ContactOutcome> outcomes;      // per contact, onset order
   std::vector<double> false_alarm_times;     // t_detect of each false alarm
@@ -114,6 +139,13 @@ struct Score {
 // Matches `detections` to `truth` (see the top of this file). Throws momentum::Error for invalid
 // options.
 Score score(const Truth& truth, const std::vector<Detection>& detections, const ScoreOptions& options);
+
+// The detected contacts as labelled examples for learning the contact/collision rule
+// (contact/classify.hpp): each detecting event's pulse width and peaks, and whether the
+// contact was a collision (an obstacle met: the truth's clamp). Events without a width (no
+// identification) are left out.
+std::vector<contact::ClassExample> class_examples(const Truth& truth, const std::vector<Detection>& detections,
+                                                  const ScoreOptions& options);
 
 // Percentiles of a sample by linear interpolation between order statistics (numpy's default);
 // p in [0, 100]. NaN for an empty sample.

@@ -1,0 +1,80 @@
+#pragma once
+// Contact or collision: what the residuals show of how a contact began.
+//
+// A collision is an impact: a short, broadband pulse of force (a stiff obstacle met at speed,
+// gone as the arm stops or bounces off). A contact is a push or a guiding hand: the force rises
+// and is held for a good part of a second. The feature is the pulse's width, the time the
+// contact's residual (weighted over the joints) stays above half its peak: the inverse of its
+// bandwidth, read in the time domain so that it is known as soon as the pulse is over. Its rise
+// time (from the estimated onset to 90% of the peak) is reported beside it. And libfranka-style
+// levels per joint: a joint over its collision level makes the event a collision whatever its
+// width (between the detection threshold and that level: a contact).
+//
+// The rule's parameters come from calibration (mo-calibrate --classes): the width that best
+// separates the collisions from the contacts of a labelled campaign, and per joint the largest
+// residual that a contact of that campaign reached. Profile entry, beside the thresholds of the
+// signal it was calibrated on:
+//
+//   "thresholds": {"mu": {..., "classify": {"width": 0.15, "collision": [40, 35, 12],
+//                                           "contacts": 12, "collisions": 18, "accuracy": 0.93}}}
+
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "momentum/contact/locate.hpp"
+
+namespace momentum::contact {
+
+enum class EventClass { unknown, contact, collision };
+// "", "contact", "collision".
+std::string_view class_name(EventClass c);
+// "contact", "collision"; nullopt otherwise (an empty field is unknown).
+std::optional<EventClass> parse_class(std::string_view text);
+
+// The shape of a contact's record (samples from the estimated onset, residual minus its level,
+// weighted by `weight`, n), from the weighted norm of each sample. NaN without samples.
+struct PulseShape {
+  double rise = NAN;    // s, from t_onset to the first sample at 90% of the peak
+  double width = NAN;   // s, first to last sample at or above half the peak
+  double t_first_half = NAN;  // s, the first sample at half the peak
+  bool over = false;    // the last sample is below half the peak: the pulse has ended
+};
+PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight);
+
+struct ClassRule {
+  double width = 0;                     // s, > 0: a shorter pulse is a collision
+  std::vector<double> collision_level;  // Nm per joint, > 0; empty: no level
+  // What it was learnt from, for reports.
+  int contacts = 0, collisions = 0;
+  double accuracy = 0;  // on its own examples, 0..1
+  bool IsValid(std::string* why) const;
+};
+
+// The class of a finished event: its pulse width (s) and per-joint peaks (Nm).
+EventClass classify(const ClassRule& rule, double width, std::span<const double> peaks);
+
+// One labelled example: a detected event's pulse width and peaks, and whether the truth calls
+// it a collision.
+struct ClassExample {
+  double width = 0;
+  std::vector<double> peaks;
+  bool collision = false;
+};
+
+// Learns the rule from examples: the width that classifies them best (the geometric middle
+// between the two neighbouring widths where the accuracy is highest; ties: the widest gap),
+// and per joint the largest peak of a contact (none where no contact has a peak: the level
+// stays off). Throws momentum::Error without at least one example of each class.
+ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints);
+
+// Reads thresholds/<signal>/classify of a profile document; nullopt when absent. Throws
+// momentum::Error `where: message` when it is malformed or its levels are not for `joints`.
+std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::string_view signal,
+                                           std::size_t joints, const std::string& where);
+nlohmann::json rule_to_json(const ClassRule& rule);
+
+}  // namespace momentum::contact

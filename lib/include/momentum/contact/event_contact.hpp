@@ -1,0 +1,67 @@
+#pragma once
+// The stream driver of identification and classification beside the detector (mo-detect): it
+// sees every row, keeps the rows of the open event (ContactWindow), and fills each event row the
+// detector writes with the contact's link, point, force and class (detect::Event::contact).
+//
+//   onset row: fitted on the rows from the estimated onset to detection; its class when already
+//              known (a joint over its collision level, or the rise time already decided);
+//   end row:   fitted on the whole event (peak force, impulse), classified on its full rise.
+//
+// The link of both rows becomes the identified one: the body of the best point among the
+// fired signature's link and those beyond it.
+//
+// Between them the class is decided live, as early as the rule allows: at the first row over
+// a joint's collision level (a collision), when the pulse is over (below half its peak: its
+// width decides), or once it has been above half its peak for the rule's width (a contact).
+// decide() reports that moment once per event, for the hooks.
+
+#include <optional>
+
+#include "momentum/contact/classify.hpp"
+#include "momentum/contact/locate.hpp"
+#include "momentum/contact/window.hpp"
+#include "momentum/detect/events.hpp"
+#include "momentum/detect/thresholds.hpp"
+#include "momentum/model/model.hpp"
+
+namespace momentum::contact {
+
+// The residual noise scale of each joint from its calibrated thresholds (Nm): the moving
+// band (the 99th percentile of collision-free motion) over 2.58, else the threshold over 4.
+Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds);
+
+class EventContact {
+ public:
+  // `model` must outlive this; its nq must equal the thresholds' joints (momentum::Error
+  // otherwise). `rule`: the calibrated class rule, none: events are not classified.
+  EventContact(const model::Model& model, const detect::Thresholds& thresholds, std::optional<ClassRule> rule,
+               LocatorOptions options = {});
+
+  // Every row, before the detector's step on it: t (s), q (nq), residual x (nq, the detector's
+  // signal).
+  void add(double t, const double* q, const double* x);
+  // Fills `event` (a row the detector produced on the last row added) and moves the window:
+  // an onset opens it, an end closes it.
+  void annotate(detect::Event& event);
+  // Once per event, on the row where its class is decided: the class; nullopt on other rows,
+  // without a rule, or with no event open.
+  std::optional<EventClass> decide();
+
+  bool classifies() const { return rule_.has_value(); }
+
+ private:
+  void fill(detect::Event& event, bool whole);
+  const model::Model* model_;
+  std::optional<ClassRule> rule_;
+  Eigen::VectorXd weight_;
+  Locator locator_;
+  ContactWindow window_;
+  std::size_t n_;
+  double t_last_ = 0;
+  int first_link_ = 1;  // the signature's link at the open event's detection
+  std::vector<double> x_last_;
+  EventClass decided_ = EventClass::unknown;
+  bool decision_reported_ = true;
+};
+
+}  // namespace momentum::contact

@@ -1,0 +1,113 @@
+#pragma once
+// Contact identification: after the detector has seen a contact, where on the arm it acts and
+// with what force, from the residuals and the chain's Jacobians alone (no force sensor).
+//
+// A contact force F (world frame, N, the force on the robot) at a point p of body b moves the
+// residuals of joints 1..b by r = -J_p(q)^T F (the sign of the disturbance torque tau_d in the
+// design notes), and leaves the joints after b untouched. For every candidate point the best
+// force is a weighted linear least-squares problem; the point is searched on the links'
+// geometry: the segment from each body's joint to the next joint (to the tip frame for the last
+// body), the skeleton a URDF without collision shapes still gives. Several samples of the same
+// contact (the arm moves, the force changes, the point stays) sharpen the point: each sample
+// has a force of its own and the point is shared.
+//
+// What the joints cannot see is said, not guessed: a force on body b has 3 unknowns and the
+// point 1 more, but only joints 1..b see it. Below 3 joints the force is known only along the
+// directions those joints see (the minimum-norm solution is given); below 4 the point anywhere
+// on the link explains the residuals equally well (the point is then the segment's middle, its
+// uncertainty the half-length, and `point_determined` false).
+//
+// Units: s, m, N, Nm; point in the body frame (the frame of the joint that moves the body).
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "momentum/model/dynamics.hpp"
+#include "momentum/model/model.hpp"
+
+namespace momentum::contact {
+
+// The segment of body `body` (0-based) searched for contact points, in the body frame, m.
+struct Segment {
+  int body = 0;
+  Eigen::Vector3d from = Eigen::Vector3d::Zero();  // the body's joint origin
+  Eigen::Vector3d to = Eigen::Vector3d::Zero();    // the next joint's origin, or the tip frame
+};
+
+// One segment per body of `model`, in body order.
+std::vector<Segment> link_segments(const model::Model& model);
+
+// One residual sample of a contact: time (s), joint positions q (nq, rad or m) and the residual
+// minus its level before the contact (nq, Nm or N).
+struct ResidualSample {
+  double t = 0;
+  Eigen::VectorXd q;
+  Eigen::VectorXd r;
+};
+
+struct LocatorOptions {
+  // Candidate points per segment, evenly spaced from its joint to its end, >= 2.
+  int points_per_link = 41;
+  // Most samples used in one fit (the strongest, evenly chosen among those of at least half the
+  // peak), >= 1.
+  int max_fit_samples = 24;
+  // A more distal body is chosen over the most proximal candidate only when its weighted cost
+  // is lower by more than this per extra unknown (the fit's own noise scale; a likelihood-ratio
+  // criterion: 2 is Akaike's), > 0.
+  double penalty_per_unknown = 2.0;
+  bool IsValid(std::string* why) const;
+};
+
+// What one fit found. `link` 0 when nothing could be fitted (no sample, or no candidate body).
+struct Location {
+  int link = 0;                                      // body 1..nq of the best point
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();   // in that body's frame, m
+  double point_sd = 0;                               // m, along the segment (NaN: not searched)
+  bool point_determined = false;                     // >= 4 joints see the body
+  bool force_determined = false;                     // >= 3 joints see the body
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // world, N, at the strongest sample
+  double force_norm = 0;                             // |force|, N
+  double force_sd = 0;                               // sd of |force|, N
+  double peak_force = 0;                             // largest |force| over all samples, N
+  double t_peak = 0;                                 // s, time of that sample
+  double impulse = 0;                                // integral of |force| over the samples, N s
+  double chi2 = 0;                                   // weighted residual sum of squares per degree of freedom
+};
+
+// Finds contact points and forces on one model. Read-only after construction except for its
+// scratch; one per thread.
+class Locator {
+ public:
+  // `sigma` (nq, > 0): the residual noise scale per joint (Nm), the weights of the least
+  // squares. Throws momentum::Error when the options are invalid or sigma has the wrong size or
+  // a non-positive entry.
+  Locator(const model::Model& model, Eigen::VectorXd sigma, LocatorOptions options = {});
+
+  // Fits the samples of one contact (time order) with candidate bodies first_link..nq (1-based;
+  // the most distal joint that fired, since no joint beyond the contact's body can feel it).
+  Location locate(std::span<const ResidualSample> samples, int first_link);
+
+ private:
+  struct Kinematics {
+    std::vector<Eigen::Matrix3d> rotation;
+    std::vector<Eigen::Vector3d> position, axis;
+  };
+  void jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point, Eigen::MatrixXd& JT) const;
+  // Weighted cost of the best force per sample at one point, summed over `fit`.
+  double point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
+                    const Eigen::Vector3d& point);
+  Eigen::Vector3d solve_force(const Kinematics& k, const ResidualSample& s, int body, const Eigen::Vector3d& point,
+                              Eigen::Matrix3d* covariance, double* cost);
+
+  const model::Model* model_;
+  model::Data data_;
+  Eigen::VectorXd weight_;  // 1 / sigma
+  LocatorOptions options_;
+  std::vector<Segment> segments_;
+  Eigen::MatrixXd JT_;
+};
+
+}  // namespace momentum::contact

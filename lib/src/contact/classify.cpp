@@ -1,0 +1,140 @@
+#include "momentum/contact/classify.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "momentum/core/error.hpp"
+
+namespace momentum::contact {
+
+std::string_view class_name(EventClass c) {
+  switch (c) {
+    case EventClass::contact: return "contact";
+    case EventClass::collision: return "collision";
+    case EventClass::unknown: break;
+  }
+  return "";
+}
+
+std::optional<EventClass> parse_class(std::string_view text) {
+  if (text == "contact") return EventClass::contact;
+  if (text == "collision") return EventClass::collision;
+  return std::nullopt;
+}
+
+PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight) {
+  PulseShape shape;
+  if (samples.empty()) return shape;
+  std::vector<double> strength(samples.size());
+  double peak = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) peak = std::max(peak, strength[i] = weight.cwiseProduct(samples[i].r).norm());
+  double t_last_half = NAN;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    if (std::isnan(shape.rise) && strength[i] >= 0.9 * peak) shape.rise = std::max(0.0, samples[i].t - t_onset);
+    if (strength[i] >= 0.5 * peak) {
+      if (std::isnan(shape.t_first_half)) shape.t_first_half = samples[i].t;
+      t_last_half = samples[i].t;
+    }
+  }
+  shape.width = t_last_half - shape.t_first_half;
+  shape.over = strength.back() < 0.5 * peak;
+  return shape;
+}
+
+bool ClassRule::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& text) {
+    if (why) *why = text;
+    return false;
+  };
+  if (!(width > 0) || !std::isfinite(width)) return fail("width must be a positive number of seconds");
+  for (std::size_t j = 0; j < collision_level.size(); ++j)
+    if (!(collision_level[j] > 0)) return fail("collision level of joint " + std::to_string(j + 1) + " must be positive");
+  return true;
+}
+
+EventClass classify(const ClassRule& rule, double width, std::span<const double> peaks) {
+  for (std::size_t j = 0; j < std::min(peaks.size(), rule.collision_level.size()); ++j)
+    if (std::abs(peaks[j]) > rule.collision_level[j]) return EventClass::collision;
+  if (std::isnan(width)) return EventClass::unknown;
+  return width < rule.width ? EventClass::collision : EventClass::contact;
+}
+
+ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints) {
+  ClassRule rule;
+  std::vector<std::pair<double, bool>> widths;
+  for (const auto& e : examples) {
+    (e.collision ? rule.collisions : rule.contacts)++;
+    if (std::isfinite(e.width)) widths.emplace_back(std::max(e.width, 1e-4), e.collision);
+  }
+  if (rule.contacts == 0 || rule.collisions == 0)
+    throw Error("learning contact and collision needs examples of both (" + std::to_string(rule.contacts) +
+                " contacts, " + std::to_string(rule.collisions) + " collisions)");
+  std::sort(widths.begin(), widths.end());
+  // Cut between widths[k-1] and widths[k]: collisions below, contacts above.
+  int best_correct = -1;
+  double best_gap = -1;
+  int correct = 0;
+  for (const auto& r : widths) correct += r.second ? 0 : 1;  // cut below everything: all contacts
+  for (std::size_t k = 0; k <= widths.size(); ++k) {
+    if (k > 0) correct += widths[k - 1].second ? 1 : -1;
+    if (k == 0 || k == widths.size()) continue;
+    if (widths[k].first == widths[k - 1].first) continue;
+    const double gap = std::log(widths[k].first / widths[k - 1].first);
+    if (correct > best_correct || (correct == best_correct && gap > best_gap)) {
+      best_correct = correct, best_gap = gap;
+      rule.width = std::sqrt(widths[k].first * widths[k - 1].first);
+    }
+  }
+  if (best_correct < 0) throw Error("learning contact and collision needs examples with different widths");
+  // Levels: the largest peak an example contact reached, per joint.
+  std::vector<double> level(joints, 0.0);
+  for (const auto& e : examples)
+    if (!e.collision)
+      for (std::size_t j = 0; j < std::min(joints, e.peaks.size()); ++j)
+        level[j] = std::max(level[j], std::abs(e.peaks[j]));
+  if (std::all_of(level.begin(), level.end(), [](double v) { return v > 0; })) rule.collision_level = level;
+  int right = 0;
+  for (const auto& e : examples) right += (classify(rule, e.width, e.peaks) == EventClass::collision) == e.collision;
+  rule.accuracy = static_cast<double>(right) / static_cast<double>(examples.size());
+  return rule;
+}
+
+std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::string_view signal,
+                                           std::size_t joints, const std::string& where) {
+  const auto thresholds = document.find("thresholds");
+  if (thresholds == document.end() || !thresholds->is_object()) return std::nullopt;
+  const auto entry = thresholds->find(std::string(signal));
+  if (entry == thresholds->end() || !entry->is_object()) return std::nullopt;
+  const auto found = entry->find("classify");
+  if (found == entry->end()) return std::nullopt;
+  const std::string key = "thresholds." + std::string(signal) + ".classify";
+  try {
+    ClassRule rule;
+    rule.width = found->at("width").get<double>();
+    if (found->contains("collision")) rule.collision_level = found->at("collision").get<std::vector<double>>();
+    rule.contacts = found->value("contacts", 0);
+    rule.collisions = found->value("collisions", 0);
+    rule.accuracy = found->value("accuracy", 0.0);
+    std::string why;
+    if (!rule.IsValid(&why)) throw Error(why);
+    if (!rule.collision_level.empty() && rule.collision_level.size() != joints)
+      throw Error("collision levels for " + std::to_string(rule.collision_level.size()) + " joints, the stream has " +
+                  std::to_string(joints));
+    return rule;
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(where + ": " + key + ": " + e.what());
+  } catch (const Error& e) {
+    throw Error(where + ": " + key + ": " + e.what());
+  }
+}
+
+nlohmann::json rule_to_json(const ClassRule& rule) {
+  nlohmann::json j = {{"width", rule.width},
+                      {"contacts", rule.contacts},
+                      {"collisions", rule.collisions},
+                      {"accuracy", rule.accuracy}};
+  if (!rule.collision_level.empty()) j["collision"] = rule.collision_level;
+  return j;
+}
+
+}  // namespace momentum::contact

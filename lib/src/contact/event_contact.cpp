@@ -1,0 +1,107 @@
+#include "momentum/contact/event_contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "momentum/core/error.hpp"
+
+namespace momentum::contact {
+
+namespace {
+
+// The 99th percentile of a normal variable in standard deviations.
+constexpr double kBandSigmas = 2.576;
+
+}  // namespace
+
+Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds) {
+  Eigen::VectorXd sigma(static_cast<Eigen::Index>(thresholds.joints.size()));
+  for (std::size_t j = 0; j < thresholds.joints.size(); ++j) {
+    const auto& J = thresholds.joints[j];
+    sigma[static_cast<Eigen::Index>(j)] = J.band > 0 ? J.band / kBandSigmas : J.moving / 4.0;
+  }
+  return sigma;
+}
+
+EventContact::EventContact(const model::Model& model, const detect::Thresholds& thresholds,
+                           std::optional<ClassRule> rule, LocatorOptions options)
+    : model_(&model),
+      rule_(std::move(rule)),
+      weight_(noise_scale(thresholds).cwiseInverse()),
+      locator_(model, noise_scale(thresholds), options),
+      window_(static_cast<std::size_t>(model.nq)),
+      n_(static_cast<std::size_t>(model.nq)),
+      x_last_(n_, 0.0) {
+  if (thresholds.joints.size() != n_)
+    throw Error("thresholds for " + std::to_string(thresholds.joints.size()) + " joints, the model has " +
+                std::to_string(n_));
+}
+
+void EventContact::add(double t, const double* q, const double* x) {
+  window_.add(t, q, x);
+  t_last_ = t;
+  std::copy(x, x + n_, x_last_.begin());
+}
+
+void EventContact::fill(detect::Event& event, bool whole) {
+  const auto samples = window_.samples();
+  // Candidates from the signature at detection on: joints that fire later may be the arm's
+  // reaction (a stop, a back-off) seen through the model's errors, not the contact.
+  if (event.kind == detect::EventKind::onset) first_link_ = event.link;
+  const Location loc = locator_.locate(samples, std::min(first_link_, event.link));
+  auto& c = event.contact;
+  if (loc.link > 0) {
+    event.link = loc.link;
+    c.force = loc.force_norm;
+    c.force_sd = loc.force_sd;
+    c.fx = loc.force.x(), c.fy = loc.force.y(), c.fz = loc.force.z();
+    c.px = loc.point.x(), c.py = loc.point.y(), c.pz = loc.point.z();
+    c.point_sd = loc.point_sd;
+    c.peak_force = loc.peak_force;
+    c.impulse = loc.impulse;
+    c.fit = loc.chi2;
+    c.seen = loc.point_determined ? "point" : loc.force_determined ? "force" : "partial";
+  }
+  if (whole) {
+    const PulseShape shape = pulse_shape(samples, window_.t_onset_estimate(), weight_);
+    c.rise = shape.rise;
+    c.width = shape.width;
+    if (rule_) c.event_class = std::string(class_name(classify(*rule_, c.width, event.peaks)));
+  } else if (decided_ != EventClass::unknown) {
+    c.event_class = std::string(class_name(decided_));
+  }
+}
+
+void EventContact::annotate(detect::Event& event) {
+  if (event.kind == detect::EventKind::onset) {
+    window_.open(event.t_onset_estimate);
+    decided_ = EventClass::unknown;
+    decision_reported_ = false;
+    // Already over a collision level, or already past the rise time, at detection: the onset
+    // row says so, and decide() still reports it once for the hooks.
+    if (decide()) decision_reported_ = false;
+    fill(event, false);
+  } else {
+    fill(event, true);
+    window_.close();
+  }
+}
+
+std::optional<EventClass> EventContact::decide() {
+  if (!rule_ || !window_.is_open() || decision_reported_) return std::nullopt;
+  if (decided_ == EventClass::unknown) {
+    for (std::size_t j = 0; j < std::min(n_, rule_->collision_level.size()); ++j)
+      if (std::abs(x_last_[j]) > rule_->collision_level[j]) decided_ = EventClass::collision;
+    if (decided_ == EventClass::unknown) {
+      // The pulse is over (its width is known), or already wider than the rule's width.
+      const PulseShape shape = pulse_shape(window_.samples(), window_.t_onset_estimate(), weight_);
+      if (shape.over) decided_ = shape.width < rule_->width ? EventClass::collision : EventClass::contact;
+      else if (t_last_ - shape.t_first_half >= rule_->width) decided_ = EventClass::contact;
+    }
+  }
+  if (decided_ == EventClass::unknown) return std::nullopt;
+  decision_reported_ = true;
+  return decided_;
+}
+
+}  // namespace momentum::contact

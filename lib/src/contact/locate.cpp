@@ -1,0 +1,215 @@
+#include "momentum/contact/locate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/SVD>
+
+#include "momentum/core/error.hpp"
+
+namespace momentum::contact {
+
+namespace {
+
+// Directions a joint set sees at least this well (relative to the strongest) count as seen.
+constexpr double kRankTolerance = 1e-6;
+
+int seen_unknowns(int body) { return std::min(3, body + 1); }
+
+}  // namespace
+
+std::vector<Segment> link_segments(const model::Model& model) {
+  std::vector<Segment> segments(static_cast<std::size_t>(model.nq));
+  for (int b = 0; b < model.nq; ++b) {
+    Segment& s = segments[static_cast<std::size_t>(b)];
+    s.body = b;
+    s.to = b + 1 < model.nq ? model.joints[static_cast<std::size_t>(b + 1)].placement.translation
+                            : model.tip_placement.translation;
+  }
+  return segments;
+}
+
+bool LocatorOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* text) {
+    if (why) *why = text;
+    return false;
+  };
+  if (points_per_link < 2) return fail("points per link must be at least 2");
+  if (max_fit_samples < 1) return fail("the fit needs at least 1 sample");
+  if (!(penalty_per_unknown > 0) || !std::isfinite(penalty_per_unknown))
+    return fail("the penalty per unknown must be positive");
+  return true;
+}
+
+Locator::Locator(const model::Model& model, Eigen::VectorXd sigma, LocatorOptions options)
+    : model_(&model), data_(model), options_(options), segments_(link_segments(model)) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw Error("contact locator: " + why);
+  if (sigma.size() != model.nq)
+    throw Error("contact locator: " + std::to_string(sigma.size()) + " noise scales for " +
+                std::to_string(model.nq) + " joints");
+  for (Eigen::Index j = 0; j < sigma.size(); ++j)
+    if (!(sigma[j] > 0) || !std::isfinite(sigma[j]))
+      throw Error("contact locator: the noise scale of joint " + std::to_string(j + 1) + " must be positive");
+  weight_ = sigma.cwiseInverse();
+  JT_.resize(model.nq, 3);
+}
+
+void Locator::jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point,
+                                 Eigen::MatrixXd& JT) const {
+  const auto b = static_cast<std::size_t>(body);
+  const Eigen::Vector3d x = k.rotation[b] * point + k.position[b];
+  JT.setZero();
+  for (std::size_t j = 0; j <= b; ++j) {
+    const Eigen::Vector3d column =
+        data_.revolute[j] ? Eigen::Vector3d(k.axis[j].cross(x - k.position[j])) : k.axis[j];
+    // Row j of W J^T: the weighted lever of joint j.
+    JT.row(static_cast<Eigen::Index>(j)) = weight_[static_cast<Eigen::Index>(j)] * column.transpose();
+  }
+}
+
+Eigen::Vector3d Locator::solve_force(const Kinematics& k, const ResidualSample& s, int body,
+                                     const Eigen::Vector3d& point, Eigen::Matrix3d* covariance, double* cost) {
+  jacobian_transpose(k, body, point, JT_);
+  const Eigen::VectorXd y = weight_.cwiseProduct(s.r);
+  // W r = -W J^T F: least squares, minimum norm where the joints do not see a direction.
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(JT_, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  svd.setThreshold(kRankTolerance);
+  const Eigen::Vector3d force = -svd.solve(y);
+  if (cost) *cost = (y + JT_ * force).squaredNorm();
+  if (covariance) {
+    // (A^T A)^+ over the seen directions.
+    const auto& sv = svd.singularValues();
+    Eigen::Vector3d inverse_square = Eigen::Vector3d::Zero();
+    for (Eigen::Index i = 0; i < sv.size(); ++i)
+      if (sv[i] > kRankTolerance * sv[0]) inverse_square[i] = 1.0 / (sv[i] * sv[i]);
+    *covariance = svd.matrixV() * inverse_square.asDiagonal() * svd.matrixV().transpose();
+  }
+  return force;
+}
+
+double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
+                           const Eigen::Vector3d& point) {
+  double total = 0;
+  for (std::size_t i = 0; i < fit.size(); ++i) {
+    double cost = 0;
+    solve_force(kin[i], *fit[i], body, point, nullptr, &cost);
+    total += cost;
+  }
+  return total;
+}
+
+Location Locator::locate(std::span<const ResidualSample> samples, int first_link) {
+  Location out;
+  const int nq = model_->nq;
+  first_link = std::max(first_link, 1);
+  if (samples.empty() || first_link > nq) return out;
+
+  // The strongest samples carry the contact; evenly chosen among those of at least half the peak.
+  std::vector<double> strength(samples.size());
+  std::size_t strongest = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    strength[i] = weight_.cwiseProduct(samples[i].r).norm();
+    if (strength[i] > strength[strongest]) strongest = i;
+  }
+  // Up to the peak only: after it the arm's controller reacts (it backs off, brakes), and the
+  // model's errors in those accelerations reach every joint's residual.
+  std::vector<std::size_t> strong;
+  for (std::size_t i = 0; i <= strongest; ++i)
+    if (strength[i] >= 0.5 * strength[strongest]) strong.push_back(i);
+  std::vector<const ResidualSample*> fit;
+  const auto limit = static_cast<std::size_t>(options_.max_fit_samples);
+  if (strong.size() <= limit) {
+    for (std::size_t i : strong) fit.push_back(&samples[i]);
+  } else {
+    for (std::size_t k = 0; k < limit; ++k) fit.push_back(&samples[strong[k * (strong.size() - 1) / (limit - 1 ? limit - 1 : 1)]]);
+  }
+
+  auto kinematics = [&](const ResidualSample& s) {
+    model::forward_kinematics(*model_, data_, s.q);
+    return Kinematics{data_.rotation, data_.position, data_.axis};
+  };
+  std::vector<Kinematics> kin;
+  kin.reserve(fit.size());
+  for (const ResidualSample* s : fit) kin.push_back(kinematics(*s));
+
+  // Best point per candidate body: its cost profile along the segment.
+  const int points = options_.points_per_link;
+  struct BodyFit {
+    int body = 0;
+    double cost = 0;
+    int unknowns = 0;
+    std::vector<double> profile;
+    int best = 0;
+  };
+  std::vector<BodyFit> fits;
+  for (int body = first_link - 1; body < nq; ++body) {
+    const Segment& seg = segments_[static_cast<std::size_t>(body)];
+    BodyFit f;
+    f.body = body;
+    f.profile.resize(static_cast<std::size_t>(points));
+    for (int p = 0; p < points; ++p) {
+      const double u = static_cast<double>(p) / (points - 1);
+      f.profile[static_cast<std::size_t>(p)] = point_cost(kin, fit, body, seg.from + u * (seg.to - seg.from));
+      if (f.profile[static_cast<std::size_t>(p)] < f.profile[static_cast<std::size_t>(f.best)]) f.best = p;
+    }
+    f.cost = f.profile[static_cast<std::size_t>(f.best)];
+    f.unknowns = static_cast<int>(fit.size()) * seen_unknowns(body) + (body + 1 >= 4 ? 1 : 0);
+    fits.push_back(std::move(f));
+  }
+
+  // The noise scale of the costs: the most distal body's fit per degree of freedom when it has
+  // any left, never below the weights' own scale.
+  const BodyFit& fullest = fits.back();
+  const double dof_full = static_cast<double>(fit.size()) * nq - fullest.unknowns;
+  const double scale = dof_full > 0 ? std::max(1.0, fullest.cost / dof_full) : 1.0;
+  std::size_t chosen = 0;
+  double best_score = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < fits.size(); ++i) {
+    const double score = fits[i].cost + options_.penalty_per_unknown * scale * fits[i].unknowns;
+    if (score < best_score) best_score = score, chosen = i;  // ties: the more proximal body
+  }
+  const BodyFit& f = fits[chosen];
+  const Segment& seg = segments_[static_cast<std::size_t>(f.body)];
+  const double length = (seg.to - seg.from).norm();
+  out.link = f.body + 1;
+  out.force_determined = f.body + 1 >= 3;
+  out.point_determined = f.body + 1 >= 4 && length > 0;
+  const double dof = static_cast<double>(fit.size()) * nq - f.unknowns;
+  out.chi2 = dof > 0 ? f.cost / dof : 0;
+  if (out.point_determined) {
+    out.point = seg.from + static_cast<double>(f.best) / (points - 1) * (seg.to - seg.from);
+    // The points whose cost is within one (scaled) unit of the best: a 68% interval.
+    int lo = f.best, hi = f.best;
+    for (int p = 0; p < points; ++p)
+      if (f.profile[static_cast<std::size_t>(p)] <= f.cost + scale) lo = std::min(lo, p), hi = std::max(hi, p);
+    out.point_sd = std::max(0.5, 0.5 * (hi - lo)) * length / (points - 1);
+  } else {
+    out.point = 0.5 * (seg.from + seg.to);
+    out.point_sd = 0.5 * length;
+  }
+
+  // Force on every sample at the chosen point: the peak and the impulse; the strongest sample's
+  // force with its uncertainty.
+  double previous_t = 0, previous_norm = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const Kinematics k = kinematics(samples[i]);
+    Eigen::Matrix3d covariance;
+    const Eigen::Vector3d force = solve_force(k, samples[i], f.body, out.point, &covariance, nullptr);
+    const double norm = force.norm();
+    if (i == strongest) {
+      out.force = force;
+      out.force_norm = norm;
+      const Eigen::Vector3d direction = norm > 0 ? Eigen::Vector3d(force / norm) : Eigen::Vector3d::UnitX();
+      out.force_sd = std::sqrt(std::max(0.0, scale * direction.dot(covariance * direction)));
+    }
+    if (norm > out.peak_force) out.peak_force = norm, out.t_peak = samples[i].t;
+    if (i > 0) out.impulse += 0.5 * (norm + previous_norm) * (samples[i].t - previous_t);
+    previous_t = samples[i].t;
+    previous_norm = norm;
+  }
+  return out;
+}
+
+}  // namespace momentum::contact

@@ -1,0 +1,74 @@
+#include "momentum/contact/window.hpp"
+
+#include <algorithm>
+
+#include "momentum/core/error.hpp"
+
+namespace momentum::contact {
+
+ContactWindow::ContactWindow(std::size_t joints, std::size_t ring_rows, std::size_t capacity, double level_seconds)
+    : n_(joints), ring_rows_(ring_rows), capacity_(capacity), level_seconds_(level_seconds) {
+  if (joints == 0 || ring_rows < 2 || capacity < 4 || !(level_seconds > 0))
+    throw Error("contact window: needs joints, a ring of 2 rows or more, a capacity of 4 or more, a level span > 0");
+  ring_.resize(ring_rows_ * (1 + 2 * n_));
+  level_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
+  samples_.reserve(capacity_);
+}
+
+void ContactWindow::add(double t, const double* q, const double* x) {
+  double* slot = &ring_[ring_next_ * (1 + 2 * n_)];
+  slot[0] = t;
+  std::copy(q, q + n_, slot + 1);
+  std::copy(x, x + n_, slot + 1 + n_);
+  ring_next_ = (ring_next_ + 1) % ring_rows_;
+  ring_size_ = std::min(ring_size_ + 1, ring_rows_);
+  if (open_) offer(t, q, x);
+}
+
+void ContactWindow::offer(double t, const double* q, const double* x) {
+  if (++since_kept_ < stride_) return;
+  since_kept_ = 0;
+  record(t, q, x);
+}
+
+void ContactWindow::record(double t, const double* q, const double* x) {
+  if (samples_.size() == capacity_) {
+    // Halve the rate: keep every other row, then every stride-th row from now on.
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < samples_.size(); i += 2) samples_[kept++] = std::move(samples_[i]);
+    samples_.resize(kept);
+    stride_ *= 2;
+  }
+  ResidualSample s;
+  s.t = t;
+  s.q = Eigen::Map<const Eigen::VectorXd>(q, static_cast<Eigen::Index>(n_));
+  s.r = Eigen::Map<const Eigen::VectorXd>(x, static_cast<Eigen::Index>(n_)) - level_;
+  samples_.push_back(std::move(s));
+}
+
+void ContactWindow::open(double t_onset_estimate) {
+  open_ = true;
+  t_onset_ = t_onset_estimate;
+  stride_ = 1;
+  since_kept_ = stride_ - 1;  // keep the first row offered
+  samples_.clear();
+  const std::size_t width = 1 + 2 * n_;
+  const std::size_t first = (ring_next_ + ring_rows_ - ring_size_) % ring_rows_;
+  auto row = [&](std::size_t k) { return &ring_[((first + k) % ring_rows_) * width]; };
+  level_.setZero();
+  int level_rows = 0;
+  for (std::size_t k = 0; k < ring_size_; ++k) {
+    const double* r = row(k);
+    if (r[0] < t_onset_estimate && r[0] >= t_onset_estimate - level_seconds_) {
+      level_ += Eigen::Map<const Eigen::VectorXd>(r + 1 + n_, static_cast<Eigen::Index>(n_));
+      ++level_rows;
+    }
+  }
+  if (level_rows > 0) level_ /= level_rows;
+  for (std::size_t k = 0; k < ring_size_; ++k) {
+    const double* r = row(k);
+    if (r[0] >= t_onset_estimate) offer(r[0], r + 1, r + 1 + n_);
+  }
+}
+
+}  // namespace momentum::contact
