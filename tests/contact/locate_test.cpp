@@ -1,0 +1,159 @@
+// Contact identification: a known force at a known point of a link, pushed through the chain's
+// Jacobian (tau = -J^T F) and noise, must come back as that link, point and force within the
+// reported uncertainty; what the joints cannot see must be said. And the class rule learnt from
+// labelled pulse widths.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "momentum/contact/classify.hpp"
+#include "momentum/contact/locate.hpp"
+#include "momentum/contact/window.hpp"
+#include "momentum/core/error.hpp"
+#include "momentum/model/dynamics.hpp"
+
+namespace {
+
+namespace mc = momentum::contact;
+namespace mm = momentum::model;
+
+mm::Model load(const std::string& name) {
+  return mm::build_model(mm::load_profile(std::string(MOMENTUM_TEST_DATA) + "/" + name + ".json"));
+}
+
+// Samples of a push on `body` (0-based) at `point` (body frame) with a world force rising and
+// falling around `force`, while the arm moves slowly; residual noise of `sigma` Nm.
+std::vector<mc::ResidualSample> push(const mm::Model& model, int body, const Eigen::Vector3d& point,
+                                     const Eigen::Vector3d& force, double sigma, unsigned seed) {
+  mm::Data data(model);
+  std::mt19937_64 random(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  std::vector<mc::ResidualSample> samples;
+  Eigen::VectorXd q0 = Eigen::VectorXd::LinSpaced(model.nq, 0.3, -0.4);
+  for (int k = 0; k <= 40; ++k) {
+    const double t = 0.005 * k;
+    mc::ResidualSample s;
+    s.t = t;
+    s.q = q0 + Eigen::VectorXd::Constant(model.nq, 0.2 * t);
+    const double envelope = std::sin(M_PI * k / 40.0);
+    mm::Matrix3X<double> J;
+    mm::point_jacobian(model, data, s.q, body, point, J);
+    s.r = -J.transpose() * (envelope * force);
+    for (Eigen::Index j = 0; j < s.r.size(); ++j) s.r[j] += noise(random);
+    samples.push_back(std::move(s));
+  }
+  return samples;
+}
+
+TEST(Locate, SegmentsRunFromJointToNextJoint) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  ASSERT_EQ(segments.size(), 6u);
+  for (int b = 0; b + 1 < 6; ++b)
+    EXPECT_TRUE(segments[b].to.isApprox(model.joints[b + 1].placement.translation)) << b;
+  EXPECT_TRUE(segments[5].to.isApprox(model.tip_placement.translation));
+}
+
+TEST(Locate, RecoversForceAndPointOnAWristLink) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const int body = 4;  // link 5: joints 1..5 see it, so force and point are determined
+  const Eigen::Vector3d point = segments[body].from + 0.6 * (segments[body].to - segments[body].from);
+  const Eigen::Vector3d force(30.0, -50.0, 20.0);
+  const double sigma = 0.05;
+  const auto samples = push(model, body, point, force, sigma, 7);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  // The signature says 3: joints 4, 5 barely fired; identification must still find link 5.
+  const mc::Location loc = locator.locate(samples, 3);
+  EXPECT_EQ(loc.link, 5);
+  EXPECT_TRUE(loc.point_determined);
+  EXPECT_TRUE(loc.force_determined);
+  EXPECT_LT((loc.point - point).norm(), 3 * loc.point_sd + 1e-9) << loc.point.transpose();
+  EXPECT_NEAR(loc.peak_force, force.norm(), 3 * loc.force_sd + 0.5);
+  EXPECT_LT(std::acos(loc.force.normalized().dot(force.normalized())), 0.1);  // direction within 6 degrees
+  // The impulse of a half sine of peak |F| over 0.2 s: |F| 0.2 * 2 / pi.
+  EXPECT_NEAR(loc.impulse, force.norm() * 0.2 * 2 / M_PI, 0.02 * force.norm() * 0.2);
+  EXPECT_LT(loc.chi2, 2.0);
+}
+
+TEST(Locate, ProximalLinkIsNotExplainedByADistalOne) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const int body = 2;  // link 3: 3 joints see it, the point is not determined
+  const Eigen::Vector3d point = 0.5 * (segments[body].from + segments[body].to);
+  const auto samples = push(model, body, point, Eigen::Vector3d(0, 40, -60), 0.05, 11);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, 0.05));
+  const mc::Location loc = locator.locate(samples, 1);
+  EXPECT_EQ(loc.link, 3);
+  EXPECT_TRUE(loc.force_determined);
+  EXPECT_FALSE(loc.point_determined);
+  EXPECT_NEAR(loc.point_sd, 0.5 * (segments[body].to - segments[body].from).norm(), 1e-12);
+}
+
+TEST(Locate, FewJointsGivePartialForce) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const auto samples = push(model, 1, 0.5 * (segments[1].from + segments[1].to), Eigen::Vector3d(0, 0, -80), 0.05, 3);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, 0.05));
+  const mc::Location loc = locator.locate(samples, 2);
+  EXPECT_EQ(loc.link, 2);
+  EXPECT_FALSE(loc.force_determined);
+  EXPECT_FALSE(loc.point_determined);
+}
+
+TEST(Locate, InvalidInputs) {
+  const mm::Model model = load("ur5");
+  EXPECT_THROW(mc::Locator(model, Eigen::VectorXd::Constant(5, 1.0)), momentum::Error);
+  EXPECT_THROW(mc::Locator(model, Eigen::VectorXd::Constant(6, 0.0)), momentum::Error);
+  mc::LocatorOptions options;
+  options.points_per_link = 1;
+  EXPECT_THROW(mc::Locator(model, Eigen::VectorXd::Constant(6, 1.0), options), momentum::Error);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, 1.0));
+  EXPECT_EQ(locator.locate({}, 1).link, 0);
+}
+
+TEST(Window, KeepsTheLevelBeforeTheOnsetAndHalvesItsRate) {
+  mc::ContactWindow window(2, 64, 8, 0.05);
+  const double q[2] = {0, 0};
+  for (int k = 0; k < 20; ++k) {
+    const double x[2] = {k < 10 ? 1.0 : 5.0, -2.0};
+    window.add(0.01 * k, q, x);
+  }
+  window.open(0.095);  // rows 10..19 are the contact; rows 5..9 the level
+  ASSERT_EQ(window.samples().size(), 5u);  // 10 rows into 8 slots: halved once
+  EXPECT_NEAR(window.samples().front().r[0], 4.0, 1e-12);
+  EXPECT_NEAR(window.samples().front().r[1], 0.0, 1e-12);
+  for (std::size_t i = 1; i < window.samples().size(); ++i)
+    EXPECT_NEAR(window.samples()[i].t - window.samples()[i - 1].t, 0.02, 1e-12);
+}
+
+TEST(Classify, PulseWidthAndLearntRule) {
+  std::vector<mc::ResidualSample> samples;
+  for (int k = 0; k <= 100; ++k) {
+    mc::ResidualSample s;
+    s.t = 0.001 * k;
+    s.q = Eigen::VectorXd::Zero(1);
+    s.r = Eigen::VectorXd::Constant(1, k >= 20 && k <= 50 ? 10.0 : 1.0);
+    samples.push_back(s);
+  }
+  const mc::PulseShape shape = mc::pulse_shape(samples, 0.0, Eigen::VectorXd::Ones(1));
+  EXPECT_NEAR(shape.width, 0.030, 1e-12);
+  EXPECT_NEAR(shape.rise, 0.020, 1e-12);
+  EXPECT_TRUE(shape.over);
+
+  std::vector<mc::ClassExample> examples = {{0.02, {5, 1}, true}, {0.05, {9, 2}, true}, {0.3, {6, 3}, false},
+                                            {0.5, {7, 1}, false}, {0.04, {4, 1}, true}};
+  const mc::ClassRule rule = mc::learn_rule(examples, 2);
+  EXPECT_NEAR(rule.width, std::sqrt(0.05 * 0.3), 1e-12);
+  EXPECT_EQ(rule.collision_level, (std::vector<double>{7, 3}));
+  EXPECT_DOUBLE_EQ(rule.accuracy, 1.0);
+  EXPECT_EQ(mc::classify(rule, 0.4, std::vector<double>{8, 1}), mc::EventClass::collision);  // over a level
+  EXPECT_EQ(mc::classify(rule, 0.4, std::vector<double>{6, 1}), mc::EventClass::contact);
+  const std::vector<mc::ClassExample> one_class = {{0.1, {1, 1}, true}};
+  EXPECT_THROW(mc::learn_rule(one_class, 2), momentum::Error);
+}
+
+}  // namespace
