@@ -41,6 +41,10 @@ int learn_classes(const cli::Tool& tool, const std::string& classes_path, const 
   nlohmann::json document = profile.document;
   if (!document.contains("thresholds") || !document["thresholds"].contains(signal))
     throw Error(tool.profile() + ": no thresholds for " + signal + " to classify with (calibrate them first)");
+  const auto& joints = document["thresholds"][signal]["joints"];
+  if (joints.is_array() && joints.size() != examples.front().peaks.size())
+    throw Error(classes_path + ": events of " + std::to_string(examples.front().peaks.size()) + " joints, the profile's " +
+                signal + " thresholds are for " + std::to_string(joints.size()));
   document["thresholds"][signal]["classify"] = contact::rule_to_json(learnt);
   model::append_provenance(document, "mo-calibrate",
                            {{"classes", classes_path}, {"truth", truth_path}, {"examples", examples.size()}});

@@ -168,8 +168,13 @@ int main(int argc, char** argv) {
       std::vector<std::size_t> iq;
       if (!no_identify && !tool.profile().empty() && stream::count_joint_columns(in->columns(), "q") >= n) {
         const auto profile = model::load_profile(tool.profile());
-        if (!profile.urdf.empty()) {
+        // Detection does not depend on identification: a chain that cannot be built costs only it.
+        try {
           chain.emplace(model::build_model(profile));
+        } catch (const Error& e) {
+          warn(std::string(e.what()) + ": events without identification");
+        }
+        if (chain) {
           if (static_cast<std::size_t>(chain->nq) == n) {
             iq = stream::column_indices(in->columns(), stream::joint_columns("q", n), in->name());
             identify.emplace(*chain, thresholds,
