@@ -86,7 +86,8 @@ TEST(Locate, ProximalLinkIsNotExplainedByADistalOne) {
   const Eigen::Vector3d point = 0.5 * (segments[body].from + segments[body].to);
   const auto samples = push(model, body, point, Eigen::Vector3d(0, 40, -60), 0.05, 11);
   mc::Locator locator(model, Eigen::VectorXd::Constant(6, 0.05));
-  const mc::Location loc = locator.locate(samples, 1);
+  // Fired at detection: joint 1; by now: joints 1..3. Links 4..6 must not explain it better.
+  const mc::Location loc = locator.locate(samples, 1, 3);
   EXPECT_EQ(loc.link, 3);
   EXPECT_TRUE(loc.force_determined);
   EXPECT_FALSE(loc.point_determined);

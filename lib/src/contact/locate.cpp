@@ -100,7 +100,7 @@ double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector
   return total;
 }
 
-Location Locator::locate(std::span<const ResidualSample> samples, int first_link) {
+Location Locator::locate(std::span<const ResidualSample> samples, int first_link, int signature_link) {
   Location out;
   const int nq = model_->nq;
   first_link = std::max(first_link, 1);
@@ -145,6 +145,11 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   };
   std::vector<BodyFit> fits;
   for (int body = first_link - 1; body < nq; ++body) {
+    // Beyond first_link, only the signature's link and links whose point the joints determine:
+    // on a link that fewer than 4 joints see, any point explains the residuals as well, so the
+    // fit could only say that some joint beyond moved, which the calibrated thresholds judge
+    // better than the noise scale of the fit does.
+    if (body > first_link - 1 && body + 1 < 4 && body + 1 != signature_link) continue;
     const Segment& seg = segments_[static_cast<std::size_t>(body)];
     BodyFit f;
     f.body = body;

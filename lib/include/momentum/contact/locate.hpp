@@ -86,9 +86,11 @@ class Locator {
   // a non-positive entry.
   Locator(const model::Model& model, Eigen::VectorXd sigma, LocatorOptions options = {});
 
-  // Fits the samples of one contact (time order) with candidate bodies first_link..nq (1-based;
-  // the most distal joint that fired, since no joint beyond the contact's body can feel it).
-  Location locate(std::span<const ResidualSample> samples, int first_link);
+  // Fits the samples of one contact (time order) with candidate bodies first_link (1-based; the
+  // most distal joint that fired at detection, since no joint beyond the contact's body can feel
+  // it), signature_link (the most distal joint that fired by now, when different) and, beyond
+  // first_link, those that 4 joints or more see (the others cannot be told apart by the fit).
+  Location locate(std::span<const ResidualSample> samples, int first_link, int signature_link = 0);
 
  private:
   struct Kinematics {
