@@ -4,7 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/SVD>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include "momentum/core/error.hpp"
 
@@ -36,6 +37,7 @@ bool LocatorOptions::IsValid(std::string* why) const {
     return false;
   };
   if (points_per_link < 2) return fail("points per link must be at least 2");
+  if (!(link_radius >= 0) || !std::isfinite(link_radius)) return fail("the link radius must be >= 0 m");
   if (max_fit_samples < 1) return fail("the fit needs at least 1 sample");
   if (!(penalty_per_unknown > 0) || !std::isfinite(penalty_per_unknown))
     return fail("the penalty per unknown must be positive");
@@ -73,20 +75,42 @@ Eigen::Vector3d Locator::solve_force(const Kinematics& k, const ResidualSample& 
                                      const Eigen::Vector3d& point, Eigen::Matrix3d* covariance, double* cost) {
   jacobian_transpose(k, body, point, JT_);
   const Eigen::VectorXd y = weight_.cwiseProduct(s.r);
-  // W r = -W J^T F: least squares, minimum norm where the joints do not see a direction.
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(JT_, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  svd.setThreshold(kRankTolerance);
-  const Eigen::Vector3d force = -svd.solve(y);
+  // W r = -W J^T F: least squares through the 3 x 3 normal equations, minimum norm where the
+  // joints do not see a direction (their eigenvalues are under the tolerance).
+  const Eigen::Matrix3d normal = JT_.transpose() * JT_;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+  eigen.computeDirect(normal);
+  const Eigen::Vector3d& values = eigen.eigenvalues();
+  Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 3; ++i)
+    if (values[i] > kRankTolerance * values[2]) inverse[i] = 1.0 / values[i];
+  const Eigen::Matrix3d pseudo_inverse = eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
+  const Eigen::Vector3d force = -pseudo_inverse * (JT_.transpose() * y);
   if (cost) *cost = (y + JT_ * force).squaredNorm();
-  if (covariance) {
-    // (A^T A)^+ over the seen directions.
-    const auto& sv = svd.singularValues();
-    Eigen::Vector3d inverse_square = Eigen::Vector3d::Zero();
-    for (Eigen::Index i = 0; i < sv.size(); ++i)
-      if (sv[i] > kRankTolerance * sv[0]) inverse_square[i] = 1.0 / (sv[i] * sv[i]);
-    *covariance = svd.matrixV() * inverse_square.asDiagonal() * svd.matrixV().transpose();
-  }
+  if (covariance) *covariance = pseudo_inverse;
   return force;
+}
+
+std::vector<Eigen::Vector3d> Locator::candidates(int body) const {
+  const Segment& seg = segments_[static_cast<std::size_t>(body)];
+  const Eigen::Vector3d along = seg.to - seg.from;
+  // Two directions across the segment (across the joint axis for a segment of no length).
+  const Eigen::Vector3d axis = along.norm() > 1e-9 ? Eigen::Vector3d(along.normalized())
+                                                   : model_->joints[static_cast<std::size_t>(body)].axis;
+  const Eigen::Vector3d across = axis.unitOrthogonal(), across2 = axis.cross(across);
+  std::vector<Eigen::Vector3d> points;
+  const int axial = options_.points_per_link;
+  constexpr int kAround = 8;
+  for (int p = 0; p < axial; ++p) {
+    const Eigen::Vector3d centre = seg.from + static_cast<double>(p) / (axial - 1) * along;
+    points.push_back(centre);
+    if (options_.link_radius > 0)
+      for (int a = 0; a < kAround; ++a) {
+        const double angle = 2 * M_PI * a / kAround;
+        points.push_back(centre + options_.link_radius * (std::cos(angle) * across + std::sin(angle) * across2));
+      }
+  }
+  return points;
 }
 
 double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
@@ -134,14 +158,14 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   kin.reserve(fit.size());
   for (const ResidualSample* s : fit) kin.push_back(kinematics(*s));
 
-  // Best point per candidate body: its cost profile along the segment.
-  const int points = options_.points_per_link;
+  // Best point per candidate body: its cost at every candidate point.
   struct BodyFit {
     int body = 0;
     double cost = 0;
     int unknowns = 0;
-    std::vector<double> profile;
-    int best = 0;
+    std::vector<Eigen::Vector3d> points;
+    std::vector<double> costs;
+    std::size_t best = 0;
   };
   std::vector<BodyFit> fits;
   for (int body = first_link - 1; body < nq; ++body) {
@@ -150,16 +174,15 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     // fit could only say that some joint beyond moved, which the calibrated thresholds judge
     // better than the noise scale of the fit does.
     if (body > first_link - 1 && body + 1 < 4 && body + 1 != signature_link) continue;
-    const Segment& seg = segments_[static_cast<std::size_t>(body)];
     BodyFit f;
     f.body = body;
-    f.profile.resize(static_cast<std::size_t>(points));
-    for (int p = 0; p < points; ++p) {
-      const double u = static_cast<double>(p) / (points - 1);
-      f.profile[static_cast<std::size_t>(p)] = point_cost(kin, fit, body, seg.from + u * (seg.to - seg.from));
-      if (f.profile[static_cast<std::size_t>(p)] < f.profile[static_cast<std::size_t>(f.best)]) f.best = p;
+    f.points = candidates(body);
+    f.costs.resize(f.points.size());
+    for (std::size_t p = 0; p < f.points.size(); ++p) {
+      f.costs[p] = point_cost(kin, fit, body, f.points[p]);
+      if (f.costs[p] < f.costs[f.best]) f.best = p;
     }
-    f.cost = f.profile[static_cast<std::size_t>(f.best)];
+    f.cost = f.costs[f.best];
     f.unknowns = static_cast<int>(fit.size()) * seen_unknowns(body) + (body + 1 >= 4 ? 1 : 0);
     fits.push_back(std::move(f));
   }
@@ -177,22 +200,24 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   }
   const BodyFit& f = fits[chosen];
   const Segment& seg = segments_[static_cast<std::size_t>(f.body)];
-  const double length = (seg.to - seg.from).norm();
   out.link = f.body + 1;
   out.force_determined = f.body + 1 >= 3;
-  out.point_determined = f.body + 1 >= 4 && length > 0;
+  out.point_determined = f.body + 1 >= 4;
   const double dof = static_cast<double>(fit.size()) * nq - f.unknowns;
   out.chi2 = dof > 0 ? f.cost / dof : 0;
   if (out.point_determined) {
-    out.point = seg.from + static_cast<double>(f.best) / (points - 1) * (seg.to - seg.from);
-    // The points whose cost is within one (scaled) unit of the best: a 68% interval.
-    int lo = f.best, hi = f.best;
-    for (int p = 0; p < points; ++p)
-      if (f.profile[static_cast<std::size_t>(p)] <= f.cost + scale) lo = std::min(lo, p), hi = std::max(hi, p);
-    out.point_sd = std::max(0.5, 0.5 * (hi - lo)) * length / (points - 1);
+    out.point = f.points[f.best];
+    // The points whose cost is within one (scaled) unit of the best: their largest distance
+    // from it is a 68% radius; at least half the spacing of the candidates.
+    const double spacing = std::max((seg.to - seg.from).norm() / (options_.points_per_link - 1),
+                                    options_.link_radius * 2 * std::sin(M_PI / 8));
+    double spread = 0.5 * spacing;
+    for (std::size_t p = 0; p < f.points.size(); ++p)
+      if (f.costs[p] <= f.cost + scale) spread = std::max(spread, (f.points[p] - out.point).norm());
+    out.point_sd = spread;
   } else {
     out.point = 0.5 * (seg.from + seg.to);
-    out.point_sd = 0.5 * length;
+    out.point_sd = 0.5 * (seg.to - seg.from).norm() + options_.link_radius;
   }
 
   // Force on every sample at the chosen point: the peak and the impulse; the strongest sample's

@@ -7,7 +7,9 @@
 // design notes), and leaves the joints after b untouched. For every candidate point the best
 // force is a weighted linear least-squares problem; the point is searched on the links'
 // geometry: the segment from each body's joint to the next joint (to the tip frame for the last
-// body), the skeleton a URDF without collision shapes still gives. Several samples of the same
+// body), the skeleton a URDF without collision shapes still gives, and a cylinder of a given
+// radius around it (a force on a wrist link turns that link's own joint only through its
+// lever off the axis). Several samples of the same
 // contact (the arm moves, the force changes, the point stays) sharpen the point: each sample
 // has a force of its own and the point is shared.
 //
@@ -50,7 +52,10 @@ struct ResidualSample {
 
 struct LocatorOptions {
   // Candidate points per segment, evenly spaced from its joint to its end, >= 2.
-  int points_per_link = 41;
+  int points_per_link = 21;
+  // Radius of the links' cylinders, m (>= 0; 0: the segments only). Each axial position adds
+  // 8 points around it. A cobot's links are about 0.05 m (mo-sim's default too).
+  double link_radius = 0.05;
   // Most samples used in one fit (the strongest, evenly chosen among those of at least half the
   // peak), >= 1.
   int max_fit_samples = 24;
@@ -65,7 +70,7 @@ struct LocatorOptions {
 struct Location {
   int link = 0;                                      // body 1..nq of the best point
   Eigen::Vector3d point = Eigen::Vector3d::Zero();   // in that body's frame, m
-  double point_sd = 0;                               // m, along the segment (NaN: not searched)
+  double point_sd = 0;                               // m, spread of the points that fit within one unit
   bool point_determined = false;                     // >= 4 joints see the body
   bool force_determined = false;                     // >= 3 joints see the body
   Eigen::Vector3d force = Eigen::Vector3d::Zero();   // world, N, at the strongest sample
@@ -97,6 +102,8 @@ class Locator {
     std::vector<Eigen::Matrix3d> rotation;
     std::vector<Eigen::Vector3d> position, axis;
   };
+  // Candidate points of body `body`, its frame.
+  std::vector<Eigen::Vector3d> candidates(int body) const;
   void jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point, Eigen::MatrixXd& JT) const;
   // Weighted cost of the best force per sample at one point, summed over `fit`.
   double point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
