@@ -86,6 +86,9 @@ int main(int argc, char** argv) {
   app.add_option("--on-contact", contact_command, "run CMD (sh -c) per contact once classified")->type_name("CMD");
   app.add_flag("--any-class", any_class, "--on-collision runs for every event at its detection");
   app.add_flag("--no-identify", no_identify, "no contact point, force or class (not even with a model and q)");
+  contact::LocatorOptions locator;
+  app.add_option("--link-radius", locator.link_radius, "radius of the links searched for the contact point, m (0.05)")
+      ->type_name("M");
   app.add_flag("--stats", stats, "print rows, events and per-row latency on stderr at the end");
   std::string format = "csv";
   app.add_option("--format", format, "events as csv (default) or jsonl: one JSON object per row")
@@ -104,6 +107,7 @@ int main(int argc, char** argv) {
       options.use_envelope = !constant;
       std::string why;
       if (!options.IsValid(&why)) throw cli::UsageError(why);
+      if (!locator.IsValid(&why)) throw cli::UsageError("--link-radius: " + why);
 
       const std::string path = tool.inputs().empty() ? "-" : tool.inputs().front();
       // To wake up on SIGINT/SIGTERM while the input is quiet, the reads of a pipe wait in
@@ -177,8 +181,8 @@ int main(int argc, char** argv) {
         if (chain) {
           if (static_cast<std::size_t>(chain->nq) == n) {
             iq = stream::column_indices(in->columns(), stream::joint_columns("q", n), in->name());
-            identify.emplace(*chain, thresholds,
-                             contact::rule_from_profile(profile.document, prefix, n, tool.profile()));
+            identify.emplace(*chain, thresholds, contact::rule_from_profile(profile.document, prefix, n, tool.profile()),
+                             locator);
           }
         }
       }
