@@ -92,11 +92,19 @@ ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints)
     if (!e.collision)
       for (std::size_t j = 0; j < std::min(joints, e.peaks.size()); ++j)
         level[j] = std::max(level[j], std::abs(e.peaks[j]));
-  if (std::all_of(level.begin(), level.end(), [](double v) { return v > 0; })) rule.collision_level = level;
-  int right = 0;
-  for (const auto& e : examples) right += (classify(rule, e.width, e.peaks) == EventClass::collision) == e.collision;
-  rule.accuracy = static_cast<double>(right) / static_cast<double>(examples.size());
-  return rule;
+  auto accuracy = [&](const ClassRule& r) {
+    int right = 0;
+    for (const auto& e : examples) right += (classify(r, e.width, e.peaks) == EventClass::collision) == e.collision;
+    return static_cast<double>(right) / static_cast<double>(examples.size());
+  };
+  rule.accuracy = accuracy(rule);
+  // The levels only where they classify the examples better than the width alone: the largest
+  // contact of a campaign is a poor bound on the next campaign's, so a level that teaches
+  // nothing here would only call a firm push a collision there.
+  ClassRule with_levels = rule;
+  if (std::all_of(level.begin(), level.end(), [](double v) { return v > 0; })) with_levels.collision_level = level;
+  with_levels.accuracy = accuracy(with_levels);
+  return with_levels.accuracy > rule.accuracy ? with_levels : rule;
 }
 
 std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::string_view signal,

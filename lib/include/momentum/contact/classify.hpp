@@ -12,7 +12,7 @@
 //
 // The rule's parameters come from calibration (mo-calibrate --classes): the width that best
 // separates the collisions from the contacts of a labelled campaign, and per joint the largest
-// residual that a contact of that campaign reached. Profile entry, beside the thresholds of the
+// residual that a contact of that campaign reached (when these levels improve on the width). Profile entry, beside the thresholds of the
 // signal it was calibrated on:
 //
 //   "thresholds": {"mu": {..., "classify": {"width": 0.15, "collision": [40, 35, 12],
@@ -67,8 +67,8 @@ struct ClassExample {
 
 // Learns the rule from examples: the width that classifies them best (the geometric middle
 // between the two neighbouring widths where the accuracy is highest; ties: the widest gap),
-// and per joint the largest peak of a contact (none where no contact has a peak: the level
-// stays off). Throws momentum::Error without at least one example of each class.
+// and per joint the largest peak of a contact as its collision level, kept only when the
+// levels classify the examples better than the width alone. Throws momentum::Error without at least one example of each class.
 ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints);
 
 // Reads thresholds/<signal>/classify of a profile document; nullopt when absent. Throws

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# Identification and classification on simulated campaigns (mo-detect(1), CONTACTS AND COLLISIONS).
+#   scripts/identify-campaigns.sh [--robots LIST] [--rates LIST] [--contacts N] [--work DIR] [BUILD_DIR]
+# defaults: paper-arm,ur5,panda; 125,1000; 30 contacts per campaign; a fresh work folder.
+#
+# Per robot and rate, as a user would run it:
+#   1. 120 s of collision-free motion: friction identified (mo-lugre-fit), thresholds calibrated;
+#   2. a training campaign (seed 2): half impacts (stiff obstacles met at speed, 300 N/mm, held
+#      10-50 ms: collisions), half slow pushes (rise 0.15-0.4 s, held 0.2-0.6 s: contacts); its
+#      events teach mo-calibrate --classes the rule;
+#   3. a test campaign of the same kinds (seed 3), scored by mo-eval: isolation, class, force
+#      and point errors, per link.
+# Prints one table row per robot and rate, and mo-eval's per-link table.
+set -euo pipefail
+robots=paper-arm,ur5,panda rates=125,1000 contacts=30 work="" keep=0
+while (($#)); do
+  case $1 in
+    --robots) robots=${2:?}; shift 2 ;;
+    --rates) rates=${2:?}; shift 2 ;;
+    --contacts) contacts=${2:?}; shift 2 ;;
+    --work) work=${2:?}; keep=1; shift 2 ;;
+    -h|--help) sed -n '2,15p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "identify-campaigns: unknown option $1" >&2; exit 2 ;;
+    *) break ;;
+  esac
+done
+build=$(cd "${1:-build}" && pwd)
+here=$(cd "$(dirname "$0")/.." && pwd)
+for t in mo-sim mo-observe mo-lugre-fit mo-calibrate mo-detect mo-eval; do
+  [[ -x $build/bin/$t ]] || { echo "identify-campaigns: $build/bin/$t not built" >&2; exit 1; }
+done
+export PATH=$build/bin:$PATH
+if [[ -z $work ]]; then
+  work=$(mktemp -d /tmp/momentum-identify.XXXXXX)
+  trap 'rm -rf "$work"' EXIT
+fi
+
+profile_of() {  # robot -> profile path (copied with its URDF into the work folder)
+  case $1 in
+    paper-arm) cp "$here"/share/momentum/robots/paper-arm/paper-arm.{json,urdf} "$2/"; echo "$2/paper-arm.json" ;;
+    ur5) cp "$here"/tests/data/ur5-sim.json "$here"/tests/data/ur5_robot.urdf "$2/"; echo "$2/ur5-sim.json" ;;
+    panda) cp "$here"/tests/data/panda-sim.json "$here"/tests/data/panda.urdf "$2/"; echo "$2/panda-sim.json" ;;
+    *) echo "identify-campaigns: unknown robot $1" >&2; exit 2 ;;
+  esac
+}
+
+kinds=(--clamping 0.5 --clamp-stiffness 300000 --clamp-hold 0.01:0.05 --rise 0.15:0.4 --hold 0.2:0.6
+       --release 0.05:0.2 --force 40:150)
+printf '%-10s %5s  %-9s %-8s %-9s %-10s %-10s\n' robot Hz detected isolated class "force err" "point err"
+IFS=, read -ra robot_list <<< "$robots"
+IFS=, read -ra rate_list <<< "$rates"
+for robot in "${robot_list[@]}"; do
+  for rate in "${rate_list[@]}"; do
+    dir=$work/$robot-$rate
+    mkdir -p "$dir"
+    profile=$(profile_of "$robot" "$dir")
+    sim=(mo-sim -q -p "$profile" --rate "$rate" --integrator semi-implicit --internal-rate $((rate > 2000 ? rate : 2000)))
+    # 1. friction and thresholds from collision-free motion
+    "${sim[@]}" --seed 1 --duration 120 --trajectory multisine -o "$dir/free.csv"
+    mo-observe -q -p "$profile" "$dir/free.csv" > "$dir/free.r.csv"
+    mo-lugre-fit -q -p "$profile" -o "$dir/fitted.json" "$dir/free.r.csv"
+    mo-observe -q -p "$dir/fitted.json" "$dir/free.csv" > "$dir/free.obs.csv"
+    mo-calibrate -q -p "$dir/fitted.json" -o "$dir/calibrated.json" "$dir/free.obs.csv" > /dev/null
+    # 2. the class rule from a training campaign
+    "${sim[@]}" --seed 2 --collisions "$contacts" "${kinds[@]}" --truth "$dir/train.truth.csv" -o "$dir/train.csv"
+    mo-observe -q -p "$dir/calibrated.json" "$dir/train.csv" > "$dir/train.obs.csv"
+    mo-detect -q -p "$dir/calibrated.json" "$dir/train.obs.csv" > "$dir/train.events.csv" || [[ $? == 1 ]]
+    mo-calibrate -q -p "$dir/calibrated.json" --classes "$dir/train.events.csv" --truth "$dir/train.truth.csv" \
+      > "$dir/classes.txt"
+    # 3. the test campaign
+    "${sim[@]}" --seed 3 --collisions "$contacts" "${kinds[@]}" --truth "$dir/test.truth.csv" -o "$dir/test.csv"
+    mo-observe -q -p "$dir/calibrated.json" "$dir/test.csv" > "$dir/test.obs.csv"
+    mo-detect -q -p "$dir/calibrated.json" "$dir/test.obs.csv" > "$dir/test.events.csv" || [[ $? == 1 ]]
+    mo-eval --truth "$dir/test.truth.csv" --json "$dir/test.events.csv" > "$dir/score.json"
+    mo-eval --truth "$dir/test.truth.csv" "$dir/test.events.csv" > "$dir/score.txt"
+    python3 - "$dir/score.json" "$robot" "$rate" <<'EOF'
+import json, sys
+s = json.load(open(sys.argv[1]))
+i = s["identification"]
+med = lambda d, f: "-" if d["median"] is None else f.format(d["median"])
+print(f"{sys.argv[2]:<10} {sys.argv[3]:>5}  {s['detected']:>2}/{s['contacts']:<6} {s['isolated']:>2}/{s['detected']:<5} "
+      f"{i['class_right']:>2}/{i['classified']:<6} {med(i['force_error_percent'], '{:.0f} %'):<10} "
+      f"{med(i['point_error_m'], '{:.3f} m'):<10}")
+EOF
+  done
+done
+echo
+for robot in "${robot_list[@]}"; do
+  for rate in "${rate_list[@]}"; do
+    echo "== $robot, $rate Hz: $(cat "$work/$robot-$rate/classes.txt")"
+    sed -n '/^link  classified/,$p' "$work/$robot-$rate/score.txt"
+    sed -n '/^link  contacts/,/^$/p' "$work/$robot-$rate/score.txt"
+  done
+done
