@@ -6,6 +6,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/detect/plot.hpp"
 #include "momentum/detect/plot_views.hpp"
+#include "momentum/eval/score.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -36,11 +37,20 @@ int main(int argc, char** argv) {
   app.add_option("--max-points", options.max_points, "time buckets per panel, min and max of each (2000)")
       ->type_name("N");
   std::string view_name = "time";
-  app.add_option("--view", view_name, "time (default), events, mu-dq or histogram")
-      ->check(CLI::IsMember({"time", "events", "mu-dq", "histogram"}));
+  app.add_option("--view", view_name, "time (default), events, mu-dq, histogram or force (no stream)")
+      ->check(CLI::IsMember({"time", "events", "mu-dq", "histogram", "force"}));
   app.add_flag("--script", script_only, "print the gnuplot script (which draws -o) instead of running it");
   tool.add_strict();
 
+  // The script, printed (--script) or drawn by gnuplot.
+  auto emit = [&](const std::string& script) {
+    if (script_only) {
+      if (std::fwrite(script.data(), 1, script.size(), stdout) != script.size()) throw Error("cannot write the script");
+      return cli::kSuccess;
+    }
+    detect::run_gnuplot(script);
+    return cli::kSuccess;
+  };
   return tool.run(argc, argv, [&] {
     if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
     if (format.empty()) {
@@ -50,6 +60,18 @@ int main(int argc, char** argv) {
     options.format = format;
     std::string why;
     if (!options.IsValid(&why)) throw cli::UsageError(why);
+    if (view_name == "force") {
+      // Events and truth only: mo-eval's matching, then estimated against true peak force.
+      if (events_path.empty() || truth_path.empty() || !tool.inputs().empty())
+        throw cli::UsageError("--view force takes --events and --truth, and no stream");
+      const auto detections = eval::read_detections(events_path, tool.strict());
+      std::vector<detect::ForcePoint> points;
+      for (const auto& o : eval::score(eval::read_truth(truth_path), detections, {}).outcomes)
+        if (o.detection >= 0 && std::isfinite(o.force_error))
+          points.push_back({o.contact.peak_force, detections[static_cast<std::size_t>(o.detection)].peak_force,
+                            o.contact.link});
+      return emit(detect::force_view_script(points, output, options));
+    }
 
     auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front());
     const std::size_t it = in->require("t");
@@ -110,13 +132,7 @@ int main(int argc, char** argv) {
         data.add(t, x.data(), idq.empty() ? nullptr : dq.data());
       }
       if (data.rows() == 0) throw Error(in->name() + ": no rows to plot");
-      const std::string script = data.gnuplot_script(truth, output, options);
-      if (script_only) {
-        if (std::fwrite(script.data(), 1, script.size(), stdout) != script.size()) throw Error("cannot write the script");
-        return cli::kSuccess;
-      }
-      detect::run_gnuplot(script);
-      return cli::kSuccess;
+      return emit(data.gnuplot_script(truth, output, options));
     }
     detect::PlotData data(signals, thresholds, n, !idq.empty(), options);
     std::vector<std::vector<double>> x(signals.size(), std::vector<double>(n));
@@ -146,12 +162,6 @@ int main(int argc, char** argv) {
       data.add(t, rows.data(), idq.empty() ? nullptr : dq.data());
     }
     if (data.rows() == 0) throw Error(in->name() + ": no rows to plot" + (std::isfinite(options.from) || std::isfinite(options.to) ? " in the time window" : ""));
-    const std::string script = detect::gnuplot_script(data, events, truth, output, options);
-    if (script_only) {
-      if (std::fwrite(script.data(), 1, script.size(), stdout) != script.size()) throw Error("cannot write the script");
-      return cli::kSuccess;
-    }
-    detect::run_gnuplot(script);
-    return cli::kSuccess;
+    return emit(detect::gnuplot_script(data, events, truth, output, options));
   });
 }

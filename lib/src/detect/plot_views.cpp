@@ -1,6 +1,7 @@
 #include "momentum/detect/plot_views.hpp"
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <cstdio>
 
@@ -40,8 +41,31 @@ std::string short_number(double x) {
 
 }  // namespace
 
+std::string force_view_script(const std::vector<ForcePoint>& points, const std::string& output,
+                              const PlotOptions& options) {
+  if (points.empty()) throw Error("no detected contact with an estimated and a true force to plot");
+  const int height = options.width * 3 / 4;
+  double top = 0;
+  std::map<int, std::string> by_link;
+  for (const auto& p : points) {
+    top = std::max({top, p.truth, p.estimate});
+    by_link[p.link] += num(p.truth) + " " + num(p.estimate) + "\n";
+  }
+  std::string s = "# momentum: estimated against true contact force\n" + terminal(options, height);
+  s += output == "-" ? std::string("set output\n") : "set output " + gp_string(output) + "\n";
+  for (const auto& [link, rows] : by_link) s += "$link" + std::to_string(link) + " << EOD\n" + rows + "EOD\n";
+  if (!options.title.empty()) s += "set title " + gp_string(options.title) + "\n";
+  s += "set xlabel 'true peak force (N)'\nset ylabel 'estimated peak force (N)'\nset grid\nset key top left\n";
+  s += "set xrange [0:" + num(1.1 * top) + "]\nset yrange [0:" + num(1.1 * top) + "]\nset size ratio -1\n";
+  s += "plot x title 'estimate = truth' lc rgb 'gray' dt 2";
+  for (const auto& [link, rows] : by_link)
+    s += ", $link" + std::to_string(link) + " using 1:2 with points pt 7 ps 1.2 title 'link " + std::to_string(link) + "'";
+  return s + "\n";
+}
+
 PlotView parse_plot_view(const std::string& name) {
   if (name == "time") return PlotView::time;
+  if (name == "force") return PlotView::force;
   if (name == "events") return PlotView::events;
   if (name == "mu-dq") return PlotView::mu_dq;
   if (name == "histogram") return PlotView::histogram;

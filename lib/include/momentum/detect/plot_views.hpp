@@ -9,6 +9,9 @@
 //   histogram  per joint, how often each |residual| occurs (log counts) with the moving
 //              threshold and the false-alarm rate it stands for on this stream: the share of
 //              rows outside the detector's band, per row and per hour.
+//   force      the estimated peak contact force of each detected contact against the true one
+//              (events with mo-detect's contact columns and a truth with f_peak), one colour
+//              per link, the line of perfect estimates; no stream needed.
 // Memory: events keeps the rows of the first max_events event windows; the other views keep
 // fixed-size histograms.
 #include <cstdint>
@@ -23,9 +26,9 @@
 
 namespace momentum::detect {
 
-enum class PlotView { time, events, mu_dq, histogram };
+enum class PlotView { time, events, mu_dq, histogram, force };
 
-// Parses "time", "events", "mu-dq", "histogram"; throws momentum::Error naming the view.
+// Parses "time", "events", "mu-dq", "histogram", "force"; throws momentum::Error naming the view.
 PlotView parse_plot_view(const std::string& name);
 
 // One event as the events view needs it: from its onset row and its end row.
@@ -38,6 +41,15 @@ struct EventSpan {
 // The spans of `events` (mo-detect's rows in file order, or read_events' merged events): an
 // onset row opens a span, the end row of the same event closes it, an end row alone is a span.
 std::vector<EventSpan> event_spans(const std::vector<Event>& events);
+
+// One detected contact of the force view: true and estimated peak force (N), its link.
+struct ForcePoint {
+  double truth = 0, estimate = 0;
+  int link = 0;
+};
+// The gnuplot script of the force view. Throws momentum::Error without a point.
+std::string force_view_script(const std::vector<ForcePoint>& points, const std::string& output,
+                              const PlotOptions& options);
 
 class ViewData {
  public:
