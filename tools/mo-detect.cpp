@@ -262,7 +262,7 @@ int main(int argc, char** argv) {
         for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
         for (std::size_t j = 0; j < irest.size(); ++j) x_rest[j] = row[irest[j]];
         for (std::size_t j = 0; j < iq.size(); ++j) q[j] = row[iq[j]];
-        if (identify) identify->add(t, q.data(), x.data());
+        if (identify) identify->add(t, q.data(), x.data(), idq.empty() ? nullptr : dq.data());
         for (detect::Event e : detector.step(t, x.data(), dq.data(), irest.empty() ? nullptr : x_rest.data())) {
           if (identify) identify->annotate(e);
           write_event(e);

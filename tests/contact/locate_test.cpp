@@ -118,15 +118,16 @@ TEST(Locate, InvalidInputs) {
 
 TEST(Window, KeepsTheLevelBeforeTheOnsetAndHalvesItsRate) {
   mc::ContactWindow window(2, 64, 8, 0.05);
-  const double q[2] = {0, 0};
+  const double q[2] = {0, 0}, weight[2] = {1, 2};
   for (int k = 0; k < 20; ++k) {
     const double x[2] = {k < 10 ? 1.0 : 5.0, -2.0};
-    window.add(0.01 * k, q, x);
+    window.add(0.01 * k, q, x, weight);
   }
   window.open(0.095);  // rows 10..19 are the contact; rows 5..9 the level
   ASSERT_EQ(window.samples().size(), 5u);  // 10 rows into 8 slots: halved once
   EXPECT_NEAR(window.samples().front().r[0], 4.0, 1e-12);
   EXPECT_NEAR(window.samples().front().r[1], 0.0, 1e-12);
+  EXPECT_EQ(window.samples().front().weight[1], 2.0);
   for (std::size_t i = 1; i < window.samples().size(); ++i)
     EXPECT_NEAR(window.samples()[i].t - window.samples()[i - 1].t, 0.02, 1e-12);
 }

@@ -14,11 +14,13 @@ constexpr double kBandSigmas = 2.576;
 
 }  // namespace
 
-Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds) {
+Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds, bool slow) {
   Eigen::VectorXd sigma(static_cast<Eigen::Index>(thresholds.joints.size()));
   for (std::size_t j = 0; j < thresholds.joints.size(); ++j) {
     const auto& J = thresholds.joints[j];
-    sigma[static_cast<Eigen::Index>(j)] = J.band > 0 ? J.band / kBandSigmas : J.moving / 4.0;
+    double& s = sigma[static_cast<Eigen::Index>(j)];
+    s = J.band > 0 ? J.band / kBandSigmas : J.moving / 4.0;
+    if (slow && J.slow) s = std::max(s, J.slow_band > 0 ? J.slow_band / kBandSigmas : *J.slow / 4.0);
   }
   return sigma;
 }
@@ -28,17 +30,26 @@ EventContact::EventContact(const model::Model& model, const detect::Thresholds& 
     : model_(&model),
       rule_(std::move(rule)),
       weight_(noise_scale(thresholds).cwiseInverse()),
+      slow_weight_(noise_scale(thresholds, true).cwiseInverse()),
+      rest_rule_(thresholds.rest_rule),
       locator_(model, noise_scale(thresholds), options),
       window_(static_cast<std::size_t>(model.nq)),
       n_(static_cast<std::size_t>(model.nq)),
-      x_last_(n_, 0.0) {
+      x_last_(n_, 0.0),
+      last_slow_(n_, -INFINITY),
+      row_weight_(n_, 0.0) {
   if (thresholds.joints.size() != n_)
     throw Error("thresholds for " + std::to_string(thresholds.joints.size()) + " joints, the model has " +
                 std::to_string(n_));
 }
 
-void EventContact::add(double t, const double* q, const double* x) {
-  window_.add(t, q, x);
+void EventContact::add(double t, const double* q, const double* x, const double* dq) {
+  for (std::size_t j = 0; j < n_; ++j) {
+    if (dq && std::abs(dq[j]) < rest_rule_.velocity) last_slow_[j] = t;
+    const bool slow = t - last_slow_[j] <= rest_rule_.hangover;
+    row_weight_[j] = (slow ? slow_weight_ : weight_)[static_cast<Eigen::Index>(j)];
+  }
+  window_.add(t, q, x, row_weight_.data());
   t_last_ = t;
   std::copy(x, x + n_, x_last_.begin());
 }

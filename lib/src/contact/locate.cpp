@@ -59,7 +59,7 @@ Locator::Locator(const model::Model& model, Eigen::VectorXd sigma, LocatorOption
 }
 
 void Locator::jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point,
-                                 Eigen::MatrixXd& JT) const {
+                                 const Eigen::VectorXd& weight, Eigen::MatrixXd& JT) const {
   const auto b = static_cast<std::size_t>(body);
   const Eigen::Vector3d x = k.rotation[b] * point + k.position[b];
   JT.setZero();
@@ -67,14 +67,15 @@ void Locator::jacobian_transpose(const Kinematics& k, int body, const Eigen::Vec
     const Eigen::Vector3d column =
         data_.revolute[j] ? Eigen::Vector3d(k.axis[j].cross(x - k.position[j])) : k.axis[j];
     // Row j of W J^T: the weighted lever of joint j.
-    JT.row(static_cast<Eigen::Index>(j)) = weight_[static_cast<Eigen::Index>(j)] * column.transpose();
+    JT.row(static_cast<Eigen::Index>(j)) = weight[static_cast<Eigen::Index>(j)] * column.transpose();
   }
 }
 
 Eigen::Vector3d Locator::solve_force(const Kinematics& k, const ResidualSample& s, int body,
                                      const Eigen::Vector3d& point, Eigen::Matrix3d* covariance, double* cost) {
-  jacobian_transpose(k, body, point, JT_);
-  const Eigen::VectorXd y = weight_.cwiseProduct(s.r);
+  const Eigen::VectorXd& weight = weight_of(s);
+  jacobian_transpose(k, body, point, weight, JT_);
+  const Eigen::VectorXd y = weight.cwiseProduct(s.r);
   // W r = -W J^T F: least squares through the 3 x 3 normal equations, minimum norm where the
   // joints do not see a direction (their eigenvalues are under the tolerance).
   const Eigen::Matrix3d normal = JT_.transpose() * JT_;
@@ -134,7 +135,7 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   std::vector<double> strength(samples.size());
   std::size_t strongest = 0;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    strength[i] = weight_.cwiseProduct(samples[i].r).norm();
+    strength[i] = weight_of(samples[i]).cwiseProduct(samples[i].r).norm();
     if (strength[i] > strength[strongest]) strongest = i;
   }
   // Up to the peak only: after it the arm's controller reacts (it backs off, brakes), and the

@@ -10,28 +10,29 @@ ContactWindow::ContactWindow(std::size_t joints, std::size_t ring_rows, std::siz
     : n_(joints), ring_rows_(ring_rows), capacity_(capacity), level_seconds_(level_seconds) {
   if (joints == 0 || ring_rows < 2 || capacity < 4 || !(level_seconds > 0))
     throw Error("contact window: needs joints, a ring of 2 rows or more, a capacity of 4 or more, a level span > 0");
-  ring_.resize(ring_rows_ * (1 + 2 * n_));
+  ring_.resize(ring_rows_ * width());
   level_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
   samples_.reserve(capacity_);
 }
 
-void ContactWindow::add(double t, const double* q, const double* x) {
-  double* slot = &ring_[ring_next_ * (1 + 2 * n_)];
+void ContactWindow::add(double t, const double* q, const double* x, const double* weight) {
+  double* slot = &ring_[ring_next_ * width()];
   slot[0] = t;
   std::copy(q, q + n_, slot + 1);
   std::copy(x, x + n_, slot + 1 + n_);
+  std::copy(weight, weight + n_, slot + 1 + 2 * n_);
   ring_next_ = (ring_next_ + 1) % ring_rows_;
   ring_size_ = std::min(ring_size_ + 1, ring_rows_);
-  if (open_) offer(t, q, x);
+  if (open_) offer(slot);
 }
 
-void ContactWindow::offer(double t, const double* q, const double* x) {
+void ContactWindow::offer(const double* row) {
   if (++since_kept_ < stride_) return;
   since_kept_ = 0;
-  record(t, q, x);
+  record(row);
 }
 
-void ContactWindow::record(double t, const double* q, const double* x) {
+void ContactWindow::record(const double* row) {
   if (samples_.size() == capacity_) {
     // Halve the rate: keep every other row, then every stride-th row from now on.
     std::size_t kept = 0;
@@ -39,10 +40,12 @@ void ContactWindow::record(double t, const double* q, const double* x) {
     samples_.resize(kept);
     stride_ *= 2;
   }
+  const auto n = static_cast<Eigen::Index>(n_);
   ResidualSample s;
-  s.t = t;
-  s.q = Eigen::Map<const Eigen::VectorXd>(q, static_cast<Eigen::Index>(n_));
-  s.r = Eigen::Map<const Eigen::VectorXd>(x, static_cast<Eigen::Index>(n_)) - level_;
+  s.t = row[0];
+  s.q = Eigen::Map<const Eigen::VectorXd>(row + 1, n);
+  s.r = Eigen::Map<const Eigen::VectorXd>(row + 1 + n_, n) - level_;
+  s.weight = Eigen::Map<const Eigen::VectorXd>(row + 1 + 2 * n_, n);
   samples_.push_back(std::move(s));
 }
 
@@ -52,9 +55,8 @@ void ContactWindow::open(double t_onset_estimate) {
   stride_ = 1;
   since_kept_ = stride_ - 1;  // keep the first row offered
   samples_.clear();
-  const std::size_t width = 1 + 2 * n_;
   const std::size_t first = (ring_next_ + ring_rows_ - ring_size_) % ring_rows_;
-  auto row = [&](std::size_t k) { return &ring_[((first + k) % ring_rows_) * width]; };
+  auto row = [&](std::size_t k) { return &ring_[((first + k) % ring_rows_) * width()]; };
   level_.setZero();
   int level_rows = 0;
   for (std::size_t k = 0; k < ring_size_; ++k) {
@@ -67,7 +69,7 @@ void ContactWindow::open(double t_onset_estimate) {
   if (level_rows > 0) level_ /= level_rows;
   for (std::size_t k = 0; k < ring_size_; ++k) {
     const double* r = row(k);
-    if (r[0] >= t_onset_estimate) offer(r[0], r + 1, r + 1 + n_);
+    if (r[0] >= t_onset_estimate) offer(r);
   }
 }
 

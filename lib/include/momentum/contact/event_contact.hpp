@@ -27,8 +27,9 @@
 namespace momentum::contact {
 
 // The residual noise scale of each joint from its calibrated thresholds (Nm): the moving
-// band (the 99th percentile of collision-free motion) over 2.58, else the threshold over 4.
-Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds);
+// band (the 99th percentile of collision-free motion) over 2.58, else the threshold over 4;
+// `slow`: the larger of that and the same of the slow state's band.
+Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds, bool slow = false);
 
 class EventContact {
  public:
@@ -38,8 +39,10 @@ class EventContact {
                LocatorOptions options = {});
 
   // Every row, before the detector's step on it: t (s), q (nq), residual x (nq, the detector's
-  // signal).
-  void add(double t, const double* q, const double* x);
+  // signal), velocities dq (nq, rad/s, or null). A joint that is slow (under the rest velocity,
+  // and for the hangover after it) is weighted by its calibrated slow band, not its moving
+  // band: friction flips there, and its compensation is least sure.
+  void add(double t, const double* q, const double* x, const double* dq);
   // Fills `event` (a row the detector produced on the last row added) and moves the window:
   // an onset opens it, an end closes it.
   void annotate(detect::Event& event);
@@ -53,13 +56,16 @@ class EventContact {
   void fill(detect::Event& event, bool whole);
   const model::Model* model_;
   std::optional<ClassRule> rule_;
-  Eigen::VectorXd weight_;
+  Eigen::VectorXd weight_, slow_weight_;  // 1 / noise scale, moving and slow
+  detect::RestRule rest_rule_;
   Locator locator_;
   ContactWindow window_;
   std::size_t n_;
   double t_last_ = 0;
   int first_link_ = 1;  // the signature's link at the open event's detection
   std::vector<double> x_last_;
+  std::vector<double> last_slow_;  // per joint, the last time |dq| was under the rest velocity
+  std::vector<double> row_weight_;
   EventClass decided_ = EventClass::unknown;
   bool decision_reported_ = true;
 };

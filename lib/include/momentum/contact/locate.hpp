@@ -42,12 +42,15 @@ struct Segment {
 // One segment per body of `model`, in body order.
 std::vector<Segment> link_segments(const model::Model& model);
 
-// One residual sample of a contact: time (s), joint positions q (nq, rad or m) and the residual
-// minus its level before the contact (nq, Nm or N).
+// One residual sample of a contact: time (s), joint positions q (nq, rad or m), the residual
+// minus its level before the contact (nq, Nm or N), and optionally the weight of each joint's
+// residual on this row (nq, 1/Nm: a joint near standstill, where friction flips, is trusted
+// less than a moving one); empty: the locator's.
 struct ResidualSample {
   double t = 0;
   Eigen::VectorXd q;
   Eigen::VectorXd r;
+  Eigen::VectorXd weight;
 };
 
 struct LocatorOptions {
@@ -104,7 +107,9 @@ class Locator {
   };
   // Candidate points of body `body`, its frame.
   std::vector<Eigen::Vector3d> candidates(int body) const;
-  void jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point, Eigen::MatrixXd& JT) const;
+  void jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point, const Eigen::VectorXd& weight,
+                          Eigen::MatrixXd& JT) const;
+  const Eigen::VectorXd& weight_of(const ResidualSample& s) const { return s.weight.size() ? s.weight : weight_; }
   // Weighted cost of the best force per sample at one point, summed over `fit`.
   double point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
                     const Eigen::Vector3d& point);

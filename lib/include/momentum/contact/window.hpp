@@ -20,8 +20,9 @@ class ContactWindow {
   ContactWindow(std::size_t joints, std::size_t ring_rows = 1024, std::size_t capacity = 512,
                 double level_seconds = 0.05);
 
-  // Every row, in time order: t (s), q (n), residual x (n).
-  void add(double t, const double* q, const double* x);
+  // Every row, in time order: t (s), q (n), residual x (n), and the weight of each joint's
+  // residual on this row (n, 1/Nm).
+  void add(double t, const double* q, const double* x, const double* weight);
   // An event opened on the last row added, with the contact estimated to start at
   // t_onset_estimate: its level is the mean residual of the ring's rows in the level span
   // before that time (0 when there are none), and its record starts at that time.
@@ -34,12 +35,13 @@ class ContactWindow {
   double t_onset_estimate() const { return t_onset_; }
 
  private:
-  void offer(double t, const double* q, const double* x);  // kept when the stride says so
-  void record(double t, const double* q, const double* x);
+  std::size_t width() const { return 1 + 3 * n_; }
+  void offer(const double* row);  // kept when the stride says so
+  void record(const double* row);
   std::size_t n_;
   std::size_t ring_rows_, capacity_;
   double level_seconds_;
-  std::vector<double> ring_;  // ring_rows x (1 + 2n): t, q, x
+  std::vector<double> ring_;  // ring_rows x (1 + 3n): t, q, x, weight
   std::size_t ring_next_ = 0, ring_size_ = 0;
   bool open_ = false;
   double t_onset_ = 0;
