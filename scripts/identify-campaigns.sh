@@ -44,8 +44,7 @@ profile_of() {  # robot -> profile path (copied with its URDF into the work fold
   esac
 }
 
-kinds=(--clamping 0.5 --clamp-stiffness 300000 --clamp-hold 0.01:0.05 --rise 0.15:0.4 --hold 0.2:0.6
-       --release 0.05:0.2 --force 40:150)
+kinds=(--mixed)  # half impacts, half slow pushes (mo-sim(1))
 printf '%-10s %5s  %-9s %-8s %-9s %-10s %-10s\n' robot Hz detected isolated class "force err" "point err"
 IFS=, read -ra robot_list <<< "$robots"
 IFS=, read -ra rate_list <<< "$rates"

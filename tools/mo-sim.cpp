@@ -98,6 +98,8 @@ int main(int argc, char** argv) {
   app.add_option("--clamping", run.contacts.clamp_fraction, "fraction of contacts that are clamps")->type_name("F")->capture_default_str();
   range_option(app, "--clamp-hold", clamp_hold, "clamp hold time range, s");
   app.add_option("--clamp-stiffness", run.contacts.clamp_stiffness, "clamping obstacle stiffness")->type_name("N/M")->capture_default_str();
+  bool mixed = false;
+  app.add_flag("--mixed", mixed, "half impacts on stiff obstacles, half slow pushes (options given win)");
 
   return tool.run(argc, argv, [&] {
     if (candump && dbc_path.empty()) throw cli::UsageError("--candump needs --dbc FILE");
@@ -107,6 +109,21 @@ int main(int argc, char** argv) {
     sim::parse_integrator(integrator, &run.integrator);
     sim::parse_velocity_source(velocity, &run.sensors.velocity);
     sim::parse_direction(direction, &run.contacts.direction);
+    if (mixed) {
+      // Both kinds of mo-detect's classes: collisions (a stiff obstacle met at speed and
+      // knocked away or backed off from: 300 N/mm, held 10-50 ms) and contacts (a hand pushing:
+      // rising over 0.15-0.4 s, held 0.2-0.6 s). Each is set unless given explicitly.
+      auto preset = [&](const char* option, auto& value, auto preset_value) {
+        if (app.count(option) == 0) value = preset_value;
+      };
+      preset("--clamping", run.contacts.clamp_fraction, 0.5);
+      preset("--clamp-stiffness", run.contacts.clamp_stiffness, 300000.0);
+      preset("--clamp-hold", clamp_hold, std::string("0.01:0.05"));
+      preset("--rise", rise, std::string("0.15:0.4"));
+      preset("--hold", hold, std::string("0.2:0.6"));
+      preset("--release", release, std::string("0.05:0.2"));
+      preset("--force", force, std::string("40:150"));
+    }
     parse_range_or_throw("--force", force, &run.contacts.force_min, &run.contacts.force_max);
     parse_range_or_throw("--rise", rise, &run.contacts.rise_min, &run.contacts.rise_max);
     parse_range_or_throw("--hold", hold, &run.contacts.hold_min, &run.contacts.hold_max);
