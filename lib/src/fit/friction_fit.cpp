@@ -18,7 +18,7 @@
 #include <unordered_map>
 
 #include "momentum/stream/error.hpp"
-#include "random.hpp"
+#include "momentum/core/random.hpp"
 
 namespace momentum::fit {
 
@@ -858,7 +858,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       absorb(dy, shift);
       if (fit.velocity_noise > 0) {
         constexpr int kDraws = 4;
-        detail::Random rng(derive_seed(seed, 0x5ee0));
+        core::Random rng(derive_seed(seed, 0x5ee0));
         dy.setZero();
         JointSeries noisy;  // the data without positions (the model does not read them)
         noisy.t = data.t;
