@@ -346,8 +346,9 @@ void Identifier::add_to_copy(Identifier& copy, std::size_t which, std::uint64_t 
                              Eigen::VectorXd& noisy) const {
   noisy = dq;
   for (int j = 0; j < n_; ++j) {
+    // The key as mo-dynfit has always mixed it (its goldens' standard errors depend on the draws).
     const std::uint64_t key =
-        core::derive_seed(core::derive_seed(core::derive_seed(options_.seed, which), index), static_cast<std::uint64_t>(j));
+        core::splitmix64(core::splitmix64(core::splitmix64(options_.seed) ^ which) ^ index) ^ static_cast<std::uint64_t>(j);
     noisy[j] += noise[j] * core::normal_at(key);
   }
   copy.add_sample(t, q, noisy, tau_m);
