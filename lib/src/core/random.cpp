@@ -58,4 +58,10 @@ double Random::normal() {
   return radius * std::cos(angle);
 }
 
+double Random::normal_unpaired() {
+  const double u1 = 1.0 - uniform();  // (0, 1]
+  const double u2 = uniform();
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+}
+
 }  // namespace momentum::core

@@ -51,6 +51,9 @@ class Random {
   int integer(int lo, int hi);
   // Standard normal (Box-Muller; both values of a pair are used, the second on the next call).
   double normal();
+  // Standard normal, one value per call (Box-Muller on 1 - uniform() and uniform(), the sine
+  // half dropped): the fitter's noise draws, whose uncertainty tests depend on them.
+  double normal_unpaired();
   // Bernoulli with probability p (p <= 0: never, p >= 1: always).
   bool chance(double p) { return p > 0 && uniform() < p; }
 
