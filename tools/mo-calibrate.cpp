@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/file.hpp"
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/events_json.hpp"
 #include "momentum/eval/score.hpp"
@@ -254,7 +255,7 @@ int main(int argc, char** argv) {
     model::append_provenance(document, "mo-calibrate", details);
     const std::string destination = output.empty() ? tool.profile() : output;
     if (destination == "-") {
-      std::cout << document.dump(2) << "\n";
+      core::write_document("-", document.dump(2) + "\n");
       return cli::kSuccess;
     }
     model::save_profile_as(document, *profile, destination);

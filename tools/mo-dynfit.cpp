@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/file.hpp"
 #include "momentum/dynfit/identify.hpp"
 #include "momentum/dynfit/regressor.hpp"
 #include "momentum/dynfit/report.hpp"
@@ -130,7 +131,7 @@ int main(int argc, char** argv) {
       // The corrected model must build (the payload, if any, applies on top).
       model::build_model(model::profile_from_document(document, profile.path));
       if (destination == "-") {
-        std::cout << document.dump(2) << "\n";
+        core::write_document("-", document.dump(2) + "\n");
       } else {
         model::save_profile_as(document, profile, destination);
       }
@@ -138,7 +139,7 @@ int main(int argc, char** argv) {
     }
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!tool.quiet()) std::fputs(dynfit::report_text(report).c_str(), stderr);
-    if (!report_path.empty()) cli::write_text(report_path, dynfit::report_json(report).dump(2) + "\n", "report");
+    if (!report_path.empty()) core::write_document(report_path, dynfit::report_json(report).dump(2) + "\n");
     if (!failure.empty()) throw Error(failure);
     return status;
   });

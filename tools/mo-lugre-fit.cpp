@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/file.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/fit/data.hpp"
 #include "momentum/fit/friction_fit.hpp"
@@ -375,7 +376,7 @@ int main(int argc, char** argv) {
                                                             options.friction);
         model::append_provenance(document, "mo-lugre-fit", fit::provenance_details(report, window_text));
         if (destination == "-") {
-          std::cout << document.dump(2) << "\n";
+          core::write_document("-", document.dump(2) + "\n");
         } else {
           model::save_profile_as(document, profile, destination);
         }
@@ -387,7 +388,7 @@ int main(int argc, char** argv) {
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!tool.quiet()) std::fputs(fit::report_text(report).c_str(), stderr);
     if (!report_path.empty()) {
-      cli::write_text(report_path, fit::report_json(report).dump(2) + "\n", "report");
+      core::write_document(report_path, fit::report_json(report).dump(2) + "\n");
     }
     if (!failure.empty()) throw Error(failure);
     return status;

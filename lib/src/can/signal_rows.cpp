@@ -1,15 +1,10 @@
 #include "momentum/can/signal_rows.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cstring>
 
 #include "momentum/stream/error.hpp"
-#include "momentum/stream/writer.hpp"
 
 namespace momentum::can {
 
@@ -17,14 +12,8 @@ namespace {
 constexpr std::size_t kBufferSize = 1 << 16;
 }
 
-SignalRowWriter::SignalRowWriter(const Database& database, const std::string& path) : database_(database) {
-  if (path.empty() || path == "-") {
-    fd_ = STDOUT_FILENO;
-  } else {
-    fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
-    owns_fd_ = true;
-  }
+SignalRowWriter::SignalRowWriter(const Database& database, const std::string& path)
+    : database_(database), out_(path) {
   buffer_.reserve(kBufferSize + 512);
   std::size_t most = 0;
   for (const auto& m : database_.messages()) most = std::max(most, m.signals.size());
@@ -37,7 +26,6 @@ SignalRowWriter::~SignalRowWriter() {
     flush();
   } catch (...) {
   }
-  if (owns_fd_) ::close(fd_);
 }
 
 void SignalRowWriter::append(std::string_view text) {
@@ -46,18 +34,9 @@ void SignalRowWriter::append(std::string_view text) {
 }
 
 void SignalRowWriter::flush() {
-  std::size_t done = 0;
-  while (done < buffer_.size()) {
-    const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      buffer_.clear();
-      if (errno == EPIPE) throw stream::BrokenPipe();
-      throw Error(std::string("write error: ") + std::strerror(errno));
-    }
-    done += static_cast<std::size_t>(n);
-  }
+  const std::string out = std::move(buffer_);
   buffer_.clear();
+  out_.write(out);
 }
 
 void SignalRowWriter::write(const Frame& frame) {

@@ -7,7 +7,6 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <iostream>
 
 #include "momentum/core/text.hpp"
@@ -242,16 +241,6 @@ std::unique_ptr<core::FileLock> lock_for_update(const std::string& path) {
   return std::make_unique<core::FileLock>(path, [](const std::string& name) {
     warn(name + ": another run is updating this profile; waiting for it to finish");
   });
-}
-
-void write_text(const std::string& path, const std::string& text, const std::string& what) {
-  if (path == "-") {
-    std::cout << text << std::flush;
-    return;
-  }
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  file << text;
-  if (!file.flush()) throw Error(path + ": cannot write the " + what);
 }
 
 }  // namespace momentum::cli

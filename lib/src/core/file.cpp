@@ -7,7 +7,9 @@
 
 #include <cerrno>
 #include <csignal>
+#include <cstdio>
 #include <cstring>
+#include <iostream>
 #include <vector>
 
 #include "momentum/core/error.hpp"
@@ -27,6 +29,19 @@ std::string kind_of(mode_t mode) {
   if (S_ISFIFO(mode)) return "a fifo";
   if (S_ISSOCK(mode)) return "a socket";
   return "not a plain file";
+}
+
+// Writes all of `bytes` to `fd`; 0, or the errno of the write that failed.
+int write_bytes(int fd, std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd, bytes.data(), bytes.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+  return 0;
 }
 
 // Temporary files that exist right now, removed by the signal handler: fixed storage, so that
@@ -126,15 +141,7 @@ void replace_file(const fs::path& path, std::string_view bytes, const ReplaceOpt
   if (exists && (old.st_uid != ::geteuid() || old.st_gid != ::getegid())) {
     if (::fchown(fd, old.st_uid, old.st_gid) != 0 && errno != EPERM) abandon("cannot set the owner", errno);
   }
-  std::size_t written = 0;
-  while (written < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      abandon("cannot write", errno);
-    }
-    written += static_cast<std::size_t>(n);
-  }
+  if (const int error = write_bytes(fd, bytes); error != 0) abandon("cannot write", error);
   if (::fsync(fd) != 0) abandon("cannot write (sync)", errno);
   if (::close(fd) != 0) {
     const int saved = errno;
@@ -152,6 +159,62 @@ void replace_file(const fs::path& path, std::string_view bytes, const ReplaceOpt
     ::fsync(dir);
     ::close(dir);
   }
+}
+
+void write_all(int fd, std::string_view bytes, std::string_view name) {
+  const int error = write_bytes(fd, bytes);
+  if (error == 0) return;
+  if (error == EPIPE) throw BrokenPipe();
+  throw Error(std::string(name) + ": write error: " + std::strerror(error));
+}
+
+OutputFile::OutputFile(const std::string& path) {
+  if (core::is_standard_output(path)) {
+    name_ = "<stdout>";
+    fd_ = STDOUT_FILENO;
+  } else {
+    name_ = path;
+    fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    if (fd_ < 0) fail(path, std::string("cannot create: ") + std::strerror(errno));
+    owns_fd_ = true;
+  }
+  struct stat st {};
+  interactive_ = ::fstat(fd_, &st) == 0 && (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode) || S_ISCHR(st.st_mode));
+}
+
+OutputFile::~OutputFile() {
+  if (owns_fd_ && fd_ >= 0) ::close(fd_);
+}
+
+void OutputFile::write(std::string_view bytes) {
+  if (fd_ < 0) throw Error(name_ + ": write error: closed");
+  write_all(fd_, bytes, name_);
+}
+
+void OutputFile::close() {
+  const int fd = fd_;
+  fd_ = -1;
+  if (owns_fd_ && fd >= 0 && ::close(fd) != 0) throw Error(name_ + ": close error: " + std::strerror(errno));
+}
+
+void write_document(const std::string& path, std::string_view bytes, const ReplaceOptions& options) {
+  if (is_standard_output(path)) {
+    // What the streams hold goes out first, so that the document stays in its place.
+    std::cout.flush();
+    std::fflush(stdout);
+    write_all(STDOUT_FILENO, bytes, "<stdout>");
+    return;
+  }
+  // A device or fifo is written to, not replaced; anything else (a regular file, a link to
+  // one, nothing yet, a directory) goes to replace_file, which refuses what it must.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode))) {
+    OutputFile out(path);
+    out.write(bytes);
+    out.close();
+    return;
+  }
+  replace_file(path, bytes, options);
 }
 
 FileLock::FileLock(const fs::path& path, const std::function<void(const std::string&)>& waiting) {

@@ -1,7 +1,5 @@
 #include "momentum/detect/events.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -13,7 +11,6 @@
 #include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
-#include "momentum/stream/writer.hpp"
 
 namespace momentum::detect {
 
@@ -117,40 +114,21 @@ std::string format_event(const Event& e, bool contact) {
 
 EventWriter::EventWriter(const std::string& path, std::size_t joints, const std::vector<std::string>& comments,
                          bool contact)
-    : joints_(joints), contact_(contact) {
-  const bool to_stdout = path.empty() || path == "-";
-  name_ = to_stdout ? "<stdout>" : path;
-  fd_ = to_stdout ? STDOUT_FILENO : ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
-  owns_ = !to_stdout;
+    : out_(path), joints_(joints), contact_(contact) {
   std::string head;
   for (const auto& c : comments) head += "#" + c + "\n";
   head += event_header(joints, contact) + "\n";
-  put(head);
+  out_.write(head);
 }
 
-EventWriter::~EventWriter() {
-  if (owns_ && fd_ >= 0) ::close(fd_);
-}
+EventWriter::~EventWriter() = default;
 
 void EventWriter::write(const Event& event) {
   if (event.peaks.size() != joints_)
-    throw Error(name_ + ": event with " + std::to_string(event.peaks.size()) + " peaks, header has " +
+    throw Error(out_.name() + ": event with " + std::to_string(event.peaks.size()) + " peaks, header has " +
                 std::to_string(joints_));
-  put(format_event(event, contact_) + "\n");
+  out_.write(format_event(event, contact_) + "\n");
   ++rows_;
-}
-
-void EventWriter::put(std::string_view text) {
-  while (!text.empty()) {
-    const ssize_t n = ::write(fd_, text.data(), text.size());
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      if (errno == EPIPE) throw stream::BrokenPipe();
-      throw Error(name_ + ": write error: " + std::strerror(errno));
-    }
-    text.remove_prefix(static_cast<std::size_t>(n));
-  }
 }
 
 // ---- reader ----------------------------------------------------------------------------

@@ -1,16 +1,11 @@
 #include "momentum/detect/events_json.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <string_view>
 
 #include "momentum/stream/error.hpp"
-#include "momentum/stream/writer.hpp"
 
 namespace momentum::detect {
 
@@ -120,30 +115,10 @@ std::string calibration_json_lines(const CalibrationResult& result, const nlohma
   return out;
 }
 
-JsonLinesWriter::JsonLinesWriter(const std::string& path) {
-  const bool to_stdout = path.empty() || path == "-";
-  name_ = to_stdout ? "<stdout>" : path;
-  fd_ = to_stdout ? STDOUT_FILENO : ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
-  owns_ = !to_stdout;
-}
+JsonLinesWriter::JsonLinesWriter(const std::string& path) : out_(path) {}
 
-JsonLinesWriter::~JsonLinesWriter() {
-  if (owns_ && fd_ >= 0) ::close(fd_);
-}
+JsonLinesWriter::~JsonLinesWriter() = default;
 
-void JsonLinesWriter::write(const nlohmann::json& object) {
-  const std::string line = object.dump() + "\n";
-  std::string_view text = line;
-  while (!text.empty()) {
-    const ssize_t n = ::write(fd_, text.data(), text.size());
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      if (errno == EPIPE) throw stream::BrokenPipe();
-      throw Error(name_ + ": write error: " + std::strerror(errno));
-    }
-    text.remove_prefix(static_cast<std::size_t>(n));
-  }
-}
+void JsonLinesWriter::write(const nlohmann::json& object) { out_.write(object.dump() + "\n"); }
 
 }  // namespace momentum::detect

@@ -96,6 +96,7 @@ ViewData::ViewData(PlotView view, Signal signal, std::optional<Thresholds> thres
     : view_(view), signal_(signal), thresholds_(std::move(thresholds)), joints_(joints), spans_(std::move(spans)) {
   if (joints_ == 0) throw Error("no joints to plot");
   if (view_ == PlotView::time) throw Error("the time view is PlotData's");
+  if (view_ == PlotView::force) throw Error("the force view is force_view_script's: it reads no stream");
   if (view_ == PlotView::mu_dq && (!have_velocity || !thresholds_))
     throw Error("the mu-dq view needs dq1..dqn columns and the profile's thresholds (-p)");
   if (view_ == PlotView::events && spans_.empty()) throw Error("the events view needs events (--events) to show");
@@ -151,6 +152,7 @@ void ViewData::add(double t, const double* x, const double* dq) {
       }
       break;
     case PlotView::time:
+    case PlotView::force:
       break;
   }
 }

@@ -11,6 +11,7 @@
 #include <Eigen/LU>
 #include <Eigen/QR>
 
+#include "momentum/core/random.hpp"
 #include "momentum/core/statistics.hpp"
 #include "momentum/dynfit/regressor.hpp"
 #include "momentum/model/inertial_corrections.hpp"
@@ -340,30 +341,15 @@ std::unique_ptr<Identifier> Identifier::snapshot() const {
   return copy;
 }
 
-namespace {
-
-std::uint64_t mix(std::uint64_t x) {  // splitmix64's finaliser
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
-double standard_normal(std::uint64_t key) {  // Box-Muller on two uniforms from the key
-  const double u1 = (static_cast<double>(mix(key) >> 11) + 0.5) * 0x1.0p-53;
-  const double u2 = static_cast<double>(mix(key ^ 0x5851f42d4c957f2dULL) >> 11) * 0x1.0p-53;
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
-}
-
-}  // namespace
-
 void Identifier::add_to_copy(Identifier& copy, std::size_t which, std::uint64_t index, const Eigen::VectorXd& noise,
                              double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
                              Eigen::VectorXd& noisy) const {
   noisy = dq;
   for (int j = 0; j < n_; ++j) {
-    const std::uint64_t key = mix(mix(mix(options_.seed) ^ which) ^ index) ^ static_cast<std::uint64_t>(j);
-    noisy[j] += noise[j] * standard_normal(key);
+    // The key as mo-dynfit has always mixed it (its goldens' standard errors depend on the draws).
+    const std::uint64_t key =
+        core::splitmix64(core::splitmix64(core::splitmix64(options_.seed) ^ which) ^ index) ^ static_cast<std::uint64_t>(j);
+    noisy[j] += noise[j] * core::normal_at(key);
   }
   copy.add_sample(t, q, noisy, tau_m);
 }

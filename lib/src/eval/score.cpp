@@ -273,7 +273,11 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
   s.duration = options.duration ? options.duration : truth.duration;
   s.contacts = static_cast<int>(truth.contacts.size());
   s.events = static_cast<int>(detections.size());
-  for (const auto& c : truth.contacts) s.outcomes.push_back({c});
+  for (const auto& c : truth.contacts) {
+    ContactOutcome o;
+    o.contact = c;
+    s.outcomes.push_back(o);
+  }
 
   std::vector<const Detection*> events;
   for (const auto& d : detections) events.push_back(&d);

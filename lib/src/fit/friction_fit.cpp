@@ -18,7 +18,7 @@
 #include <unordered_map>
 
 #include "momentum/stream/error.hpp"
-#include "random.hpp"
+#include "momentum/core/random.hpp"
 
 namespace momentum::fit {
 
@@ -858,7 +858,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       absorb(dy, shift);
       if (fit.velocity_noise > 0) {
         constexpr int kDraws = 4;
-        detail::Random rng(derive_seed(seed, 0x5ee0));
+        core::Random rng(derive_seed(seed, 0x5ee0));
         dy.setZero();
         JointSeries noisy;  // the data without positions (the model does not read them)
         noisy.t = data.t;
@@ -868,7 +868,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
         const Problem perturbed(noisy, gains, kind, options);
         for (int draw = 0; draw < kDraws; ++draw) {
           noisy.dq = data.dq;
-          for (auto& v : noisy.dq) v += fit.velocity_noise * rng.normal();
+          for (auto& v : noisy.dq) v += fit.velocity_noise * rng.normal_unpaired();
           const std::vector<double> y = counted_model(perturbed, 1);
           for (Eigen::Index k = 0; k < dy.size(); ++k)
             dy(k) += (y[static_cast<std::size_t>(k)] - coarse[static_cast<std::size_t>(k)]) / kDraws;

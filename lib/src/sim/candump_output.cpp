@@ -1,11 +1,8 @@
 #include "momentum/sim/candump_output.hpp"
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 
 #include "momentum/stream/error.hpp"
-#include "momentum/stream/writer.hpp"
 
 namespace momentum::sim {
 
@@ -49,25 +46,16 @@ CandumpOutput::CandumpOutput(const can::Database& db, const std::string& path, i
   options.frame_spacing = std::min(kFrameSpacing, period / static_cast<double>(messages + 2));
   writer_.emplace(db, std::move(sources), std::move(options));
   values_.resize(columns_.size());
-  if (path.empty() || path == "-") {
-    file_ = stdout;
-    name_ = "<stdout>";
-  } else {
-    file_ = std::fopen(path.c_str(), "w");
-    if (!file_) throw Error(path + ": cannot create: " + std::strerror(errno));
-    owns_ = true;
-    name_ = path;
-  }
+  out_.emplace(path);
 }
 
-CandumpOutput::~CandumpOutput() {
-  if (owns_ && file_) std::fclose(file_);
-}
+CandumpOutput::~CandumpOutput() = default;
 
 void CandumpOutput::put(const std::string& text) {
-  if (std::fwrite(text.data(), 1, text.size(), file_) != text.size()) {
-    if (errno == EPIPE) throw stream::BrokenPipe();
-    throw Error(name_ + ": write failed: " + std::strerror(errno));
+  buffer_ += text;
+  if (buffer_.size() >= (1u << 16)) {
+    out_->write(buffer_);
+    buffer_.clear();
   }
 }
 
@@ -80,15 +68,12 @@ void CandumpOutput::write(const Sample& s) {
 }
 
 void CandumpOutput::close() {
-  if (!file_) return;
-  if (std::fflush(file_) != 0) {
-    if (errno == EPIPE) throw stream::BrokenPipe();
-    throw Error(name_ + ": write failed: " + std::strerror(errno));
-  }
-  if (owns_) {
-    std::fclose(file_);
-    file_ = nullptr;
-  }
+  if (!out_) return;
+  const std::string rest = std::move(buffer_);
+  buffer_.clear();
+  out_->write(rest);
+  out_->close();
+  out_.reset();
 }
 
 }  // namespace momentum::sim

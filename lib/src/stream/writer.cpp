@@ -1,10 +1,5 @@
 #include "momentum/stream/writer.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstring>
 #include <limits>
 
@@ -30,15 +25,7 @@ void put_string(std::vector<char>& out, std::string_view s) {
 
 std::unique_ptr<Writer> Writer::open(const std::string& path, WriterOptions options) {
   std::unique_ptr<Writer> writer(new Writer());
-  bool to_stdout = path.empty() || path == "-";
-  writer->name_ = to_stdout ? "<stdout>" : path;
-  writer->fd_ = to_stdout ? STDOUT_FILENO
-                          : ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (writer->fd_ < 0) throw Error(path + ": cannot create: " + std::strerror(errno));
-  writer->owns_fd_ = !to_stdout;
-  struct stat st;
-  writer->interactive_ = ::fstat(writer->fd_, &st) == 0 &&
-                         (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode) || S_ISCHR(st.st_mode));
+  writer->out_ = std::make_unique<core::OutputFile>(path);
   writer->options_ = options;
   writer->buffer_.resize(kBufferSize);
   return writer;
@@ -72,7 +59,7 @@ void Writer::comment(std::string_view text) {
 }
 
 void Writer::header(const std::vector<std::string>& columns) {
-  if (header_written_) throw Error(name_ + ": header written twice");
+  if (header_written_) throw Error(out_->name() + ": header written twice");
   header_written_ = true;
   width_ = columns.size();
   std::vector<char> out;
@@ -150,21 +137,10 @@ void Writer::flush() {
   write_all(buffer_.data(), n);
 }
 
-void Writer::write_all(const char* data, std::size_t size) {
-  while (size > 0) {
-    ssize_t put = ::write(fd_, data, size);
-    if (put < 0) {
-      if (errno == EINTR) continue;
-      if (errno == EPIPE) throw BrokenPipe();
-      throw Error(name_ + ": write error: " + std::strerror(errno));
-    }
-    data += put;
-    size -= static_cast<std::size_t>(put);
-  }
-}
+void Writer::write_all(const char* data, std::size_t size) { out_->write(std::string_view(data, size)); }
 
 void Writer::close() {
-  if (fd_ < 0) return;
+  if (closed_) return;
   if (!header_written_ && !pending_comments_.empty()) {
     // Nothing but comments: still a readable stream of no columns is impossible, so emit them
     // as CSV comment lines; a binary stream needs a header, which we do not have.
@@ -177,16 +153,17 @@ void Writer::close() {
     }
     pending_comments_.clear();
   }
-  int fd = fd_;
+  closed_ = true;
   try {
     flush();
   } catch (...) {
-    if (owns_fd_) ::close(fd);
-    fd_ = -1;
+    try {
+      out_->close();
+    } catch (...) {
+    }
     throw;
   }
-  fd_ = -1;
-  if (owns_fd_ && ::close(fd) != 0) throw Error(name_ + ": close error: " + std::strerror(errno));
+  out_->close();
 }
 
 }  // namespace momentum::stream

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "momentum/can/codec.hpp"
+#include "momentum/core/file.hpp"
 #include "momentum/can/dbc.hpp"
 #include "momentum/can/frame.hpp"
 
@@ -42,8 +43,7 @@ class SignalRowWriter {
   void append(std::string_view text);
 
   const Database& database_;
-  int fd_ = -1;
-  bool owns_fd_ = false;
+  core::OutputFile out_;
   std::string buffer_;
   std::string row_;
   std::vector<SignalValue> values_;

@@ -173,8 +173,4 @@ std::vector<double> parse_number_list(const std::string& text, const std::string
 // what core::FileLock throws (a profile that is not a regular file, for one).
 std::unique_ptr<core::FileLock> lock_for_update(const std::string& path);
 
-// Writes `text` (a report, a document) to the file `path`, replacing it, or to stdout when path
-// is "-". Throws momentum::Error "PATH: cannot write the WHAT" when the file cannot be written.
-void write_text(const std::string& path, const std::string& text, const std::string& what);
-
 }  // namespace momentum::cli

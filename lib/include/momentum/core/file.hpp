@@ -1,14 +1,63 @@
 #pragma once
-// Files replaced safely: the profile updates of mo-calibrate, mo-lugre-fit and mo-dynfit, and
-// any other file a tool rewrites in place. The caller builds the bytes; this layer decides
-// where they go and makes the replacement atomic, so it composes with any serialisation.
+// Where every tool's output goes, by one policy: the name "-" (or none) is standard output; a
+// reader that went away (a closed pipe) ends the run quietly (BrokenPipe); a write that fails
+// (a full disk, an I/O error) is an error naming the file; a whole document written to a file
+// replaces it atomically (the profile updates of mo-calibrate, mo-lugre-fit and mo-dynfit,
+// reports). The caller builds the bytes; this layer decides where they go, so it composes with
+// any serialisation.
 
 #include <filesystem>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 
 namespace momentum::core {
+
+// Thrown when the reader of our output went away (EPIPE). Tools end quietly with status 0.
+class BrokenPipe : public std::exception {
+ public:
+  const char* what() const noexcept override { return "broken pipe"; }
+};
+
+// True for the names that mean standard output: "-" and "".
+inline bool is_standard_output(std::string_view path) { return path.empty() || path == "-"; }
+
+// Writes all of `bytes` to the descriptor `fd` (short writes and EINTR retried). Throws
+// BrokenPipe on EPIPE, and momentum::Error `NAME: write error: why` on any other failure (a
+// full disk: `No space left on device`).
+void write_all(int fd, std::string_view bytes, std::string_view name);
+
+// A streamed output: standard output for "-" or "" (named "<stdout>" in messages, never
+// closed), else the file `path`, created (mode 0666 less the umask) or truncated in place the
+// way a shell's `>` does: a symlink is followed, a device or fifo written as it is (-o
+// /dev/null stays a device). Writes go straight to write(2): buffer above it.
+class OutputFile {
+ public:
+  // Throws momentum::Error `PATH: cannot create: why`.
+  explicit OutputFile(const std::string& path);
+  ~OutputFile();  // closes a file, ignoring errors: call close() to see them
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+
+  // write_all to this output.
+  void write(std::string_view bytes);
+  // Closes a file (standard output stays open); throws momentum::Error `NAME: close error:
+  // why` (a full disk that NFS reports late). Further writes are errors.
+  void close();
+
+  const std::string& name() const { return name_; }
+  int fd() const { return fd_; }
+  bool is_standard_output() const { return !owns_fd_; }
+  // True when the output is a pipe, socket or terminal (a live pipeline wants each row at once).
+  bool interactive() const { return interactive_; }
+
+ private:
+  std::string name_;
+  int fd_ = -1;
+  bool owns_fd_ = false;
+  bool interactive_ = false;
+};
 
 // The file that writing `path` would change: symlinks are followed (each level, relative
 // targets against the link's folder) to the real target. Throws momentum::Error naming `path`
@@ -33,6 +82,13 @@ struct ReplaceOptions {
 // before). Throws momentum::Error naming `path` (write errors, a full disk, a read-only target,
 // what write_target throws).
 void replace_file(const std::filesystem::path& path, std::string_view bytes, const ReplaceOptions& options = {});
+
+// Writes a whole document (a report, a profile, a JSON object) to `path`: to standard output
+// for "-" or "" (after what the C and C++ streams hold for it), else by replace_file when
+// `path` names a regular file or nothing yet, so that a reader never sees half a document, and
+// in place when it names a device or fifo (/dev/null, /dev/stdout). Throws BrokenPipe, or
+// momentum::Error naming `path` (what write_all and replace_file throw).
+void write_document(const std::string& path, std::string_view bytes, const ReplaceOptions& options = {});
 
 // While alive, removes the file `path` when SIGINT or SIGTERM arrives, then delivers the signal
 // to the handler that was there before (the default one ends the process). For temporary files

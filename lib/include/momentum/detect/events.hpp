@@ -20,6 +20,8 @@
 #include <string_view>
 #include <vector>
 
+#include "momentum/core/file.hpp"
+
 namespace momentum::detect {
 
 enum class EventKind { onset, end };
@@ -79,7 +81,8 @@ std::string event_header(std::size_t joints, bool contact = false);
 std::string format_event(const Event& event, bool contact = false);
 
 // Writes event rows to a file or stdout, flushing after every row so a consumer sees an event
-// the moment it is detected. Uses write(2); a closed reader (EPIPE) throws stream::BrokenPipe.
+// the moment it is detected. Uses core::OutputFile; a closed reader (EPIPE) throws
+// stream::BrokenPipe.
 class EventWriter {
  public:
   // Opens `path` ("-" or "": stdout) and writes `comments` (each as '#' + text) and the header
@@ -97,10 +100,7 @@ class EventWriter {
   std::uint64_t rows_written() const { return rows_; }
 
  private:
-  void put(std::string_view text);
-  int fd_ = -1;
-  bool owns_ = false;
-  std::string name_;
+  core::OutputFile out_;
   std::size_t joints_ = 0;
   bool contact_ = false;
   std::uint64_t rows_ = 0;

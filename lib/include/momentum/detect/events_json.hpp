@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "momentum/core/file.hpp"
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/events.hpp"
 #include "momentum/detect/thresholds.hpp"
@@ -47,9 +48,7 @@ class JsonLinesWriter {
   void write(const nlohmann::json& object);
 
  private:
-  int fd_ = -1;
-  bool owns_ = false;
-  std::string name_;
+  core::OutputFile out_;
 };
 
 }  // namespace momentum::detect

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "momentum/can/capture.hpp"
+#include "momentum/core/file.hpp"
 #include "momentum/can/dbc.hpp"
 #include "momentum/sim/run.hpp"
 
@@ -51,9 +52,8 @@ class CandumpOutput {
 
   std::vector<std::size_t> columns_;  // per capture source: its index in sample_columns()
   std::optional<can::CaptureWriter> writer_;
-  std::FILE* file_ = nullptr;
-  bool owns_ = false;
-  std::string name_;
+  std::optional<core::OutputFile> out_;  // opened once the DBC has been checked
+  std::string buffer_;
   std::vector<double> row_, values_;
   std::string text_;
 };

@@ -1,6 +1,6 @@
 #pragma once
 // Writes a sample stream, CSV or binary, to a file or stdout ("-"), through one buffer written
-// with write(2). Output is flushed when the buffer fills, when flush() is called, after every
+// with write(2) to a core::OutputFile (its policy for "-", a closed pipe and a full disk). Output is flushed when the buffer fills, when flush() is called, after every
 // row in line-buffered mode, and at close.
 
 #include <cstdint>
@@ -9,15 +9,13 @@
 #include <string_view>
 #include <vector>
 
+#include "momentum/core/file.hpp"
 #include "momentum/stream/format.hpp"
 
 namespace momentum::stream {
 
 // Thrown when the reader of our output went away (EPIPE). Tools end quietly with status 0.
-class BrokenPipe : public std::exception {
- public:
-  const char* what() const noexcept override { return "broken pipe"; }
-};
+using BrokenPipe = core::BrokenPipe;
 
 struct WriterOptions {
   Encoding encoding = Encoding::csv;
@@ -49,18 +47,16 @@ class Writer {
   std::size_t width() const { return width_; }
   std::uint64_t rows_written() const { return rows_written_; }
   // True when the output is a pipe, socket or terminal.
-  bool interactive() const { return interactive_; }
+  bool interactive() const { return out_->interactive(); }
   void set_line_buffered(bool on) { options_.line_buffered = on; }
 
  private:
   Writer() = default;
   void append(const void* data, std::size_t size);
   void write_all(const char* data, std::size_t size);
-  int fd_ = -1;
-  bool owns_fd_ = false;
-  bool interactive_ = false;
+  std::unique_ptr<core::OutputFile> out_;
+  bool closed_ = false;
   bool header_written_ = false;
-  std::string name_;
   WriterOptions options_;
   std::size_t width_ = 0;
   std::uint64_t rows_written_ = 0;
