@@ -123,6 +123,8 @@ TEST(Window, KeepsTheLevelBeforeTheOnsetAndHalvesItsRate) {
     const double x[2] = {k < 10 ? 1.0 : 5.0, -2.0};
     window.add(0.01 * k, q, x, weight);
   }
+  const double broken[2] = {NAN, 1.0};
+  window.add(0.195, q, broken, weight);  // left out: it would poison the level and the fit
   window.open(0.095);  // rows 10..19 are the contact; rows 5..9 the level
   ASSERT_EQ(window.samples().size(), 5u);  // 10 rows into 8 slots: halved once
   EXPECT_NEAR(window.samples().front().r[0], 4.0, 1e-12);

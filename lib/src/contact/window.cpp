@@ -1,6 +1,7 @@
 #include "momentum/contact/window.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "momentum/core/error.hpp"
 
@@ -16,6 +17,10 @@ ContactWindow::ContactWindow(std::size_t joints, std::size_t ring_rows, std::siz
 }
 
 void ContactWindow::add(double t, const double* q, const double* x, const double* weight) {
+  // A row with a value missing or broken costs only itself: the contact is fitted without it.
+  for (std::size_t j = 0; j < n_; ++j)
+    if (!std::isfinite(q[j]) || !std::isfinite(x[j])) return;
+  if (!std::isfinite(t)) return;
   double* slot = &ring_[ring_next_ * width()];
   slot[0] = t;
   std::copy(q, q + n_, slot + 1);

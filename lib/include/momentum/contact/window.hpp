@@ -21,7 +21,7 @@ class ContactWindow {
                 double level_seconds = 0.05);
 
   // Every row, in time order: t (s), q (n), residual x (n), and the weight of each joint's
-  // residual on this row (n, 1/Nm).
+  // residual on this row (n, 1/Nm). A row with a non-finite t, q or x is left out.
   void add(double t, const double* q, const double* x, const double* weight);
   // An event opened on the last row added, with the contact estimated to start at
   // t_onset_estimate: its level is the mean residual of the ring's rows in the level span
