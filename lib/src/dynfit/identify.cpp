@@ -3,8 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <deque>
+#include <exception>
 #include <limits>
+#include <mutex>
+#include <thread>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -165,6 +170,7 @@ bool IdentifyOptions::IsValid(std::string* why) const {
   if (!(velocity_noise_seconds >= 0) || !std::isfinite(velocity_noise_seconds))
     return reject(why, "velocity-noise seconds must be >= 0");
   if (velocity_noise_samples < 10) return reject(why, "velocity-noise samples must be >= 10");
+  if (threads < 1) return reject(why, "threads must be >= 1");
   return true;
 }
 
@@ -188,6 +194,9 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
   empty.c.setZero(columns_);
   fit_joint_.assign(static_cast<std::size_t>(n_), empty);
   held_joint_.assign(static_cast<std::size_t>(n_), empty);
+  block_joint_.assign(static_cast<std::size_t>(n_), empty);
+  fit_rows_.resize(static_cast<std::size_t>(n_));
+  held_rows_.resize(static_cast<std::size_t>(n_));
   block_length_ = options_.block;
   count_from_.assign(static_cast<std::size_t>(n_), std::numeric_limits<double>::infinity());
   slow_.assign(static_cast<std::size_t>(n_), false);
@@ -198,11 +207,131 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
     probe.min_speed = std::max(2 * options_.min_speed, 0.1);
     probe.friction_probe = false;
     probe.velocity_noise_draws = 0;
+    probe.threads = 1;
     friction_probe_ = std::make_unique<Identifier>(nominal, probe);
+    if (options_.threads > 1) probe_feed_ = std::make_unique<ProbeFeed>(*friction_probe_, n_);
   }
 }
 
+// The probe's samples and restarts, in order, in batches handed to a thread of its own. The
+// probe does exactly what it would do fed here, so the results do not depend on the threads.
+class Identifier::ProbeFeed {
+ public:
+  ProbeFeed(Identifier& probe, int n) : probe_(probe), n_(n), worker_([this] { run(); }) {}
+  ~ProbeFeed() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    ready_.notify_all();
+    worker_.join();
+  }
+  void add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m) {
+    filling_.restart.push_back(0);
+    filling_.values.push_back(t);
+    filling_.values.insert(filling_.values.end(), q.data(), q.data() + n_);
+    filling_.values.insert(filling_.values.end(), dq.data(), dq.data() + n_);
+    filling_.values.insert(filling_.values.end(), tau_m.data(), tau_m.data() + n_);
+    if (filling_.restart.size() >= kBatch) hand_over();
+  }
+  void restart() {
+    filling_.restart.push_back(1);
+    if (filling_.restart.size() >= kBatch) hand_over();
+  }
+  // Returns when the probe has seen every sample; rethrows what it threw.
+  void drain() {
+    hand_over();
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return queue_.empty() && !busy_; });
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  static constexpr std::size_t kBatch = 4096;
+  static constexpr std::size_t kQueued = 4;  // batches waiting at most (bounded memory)
+  struct Batch {
+    std::vector<std::uint8_t> restart;  // per entry: 1 a restart, 0 a sample (1 + 3 n values)
+    std::vector<double> values;
+  };
+  void hand_over() {
+    if (filling_.restart.empty()) return;
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return queue_.size() < kQueued; });
+    queue_.push_back(std::move(filling_));
+    lock.unlock();
+    ready_.notify_one();
+    filling_ = Batch{};
+    filling_.restart.reserve(kBatch);
+    filling_.values.reserve(kBatch * static_cast<std::size_t>(1 + 3 * n_));
+  }
+  void run() {
+    Eigen::VectorXd q(n_), dq(n_), tau(n_);
+    for (;;) {
+      Batch batch;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        ready_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        if (queue_.empty()) return;
+        batch = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+      }
+      done_.notify_all();  // room in the queue
+      if (!error_) {
+        try {
+          const double* v = batch.values.data();
+          for (const std::uint8_t restart : batch.restart) {
+            if (restart) {
+              probe_.restart_sample();
+              continue;
+            }
+            const double t = *v++;
+            for (int j = 0; j < n_; ++j) q[j] = *v++;
+            for (int j = 0; j < n_; ++j) dq[j] = *v++;
+            for (int j = 0; j < n_; ++j) tau[j] = *v++;
+            probe_.add_sample(t, q, dq, tau);
+          }
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          error_ = std::current_exception();
+        }
+      }
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        busy_ = false;
+      }
+      done_.notify_all();
+    }
+  }
+  Identifier& probe_;
+  const int n_;
+  Batch filling_;
+  std::mutex mutex_;
+  std::condition_variable ready_, done_;
+  std::deque<Batch> queue_;
+  bool busy_ = false, stop_ = false;
+  std::exception_ptr error_;
+  std::thread worker_;  // last: starts once everything above is in place
+};
+
 Identifier::~Identifier() = default;
+
+void Identifier::probe_add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
+                           const Eigen::VectorXd& tau_m) {
+  if (probe_feed_) {
+    probe_feed_->add(t, q, dq, tau_m);
+  } else if (friction_probe_) {
+    friction_probe_->add_sample(t, q, dq, tau_m);
+  }
+}
+
+void Identifier::probe_restart() {
+  if (probe_feed_) {
+    probe_feed_->restart();
+  } else if (friction_probe_) {
+    friction_probe_->restart_sample();
+  }
+}
 
 void Identifier::Grid::add(double k_, double t_) {
   n += 1;
@@ -242,7 +371,7 @@ void Identifier::restart_sample() {
   t_log_ = options_.holdout_segment * std::ceil(t_log_ / options_.holdout_segment + 1e-9);
   started_ = false;
   have_time_ = false;
-  if (friction_probe_) friction_probe_->restart_sample();
+  probe_restart();
 }
 
 std::uint64_t Identifier::samples_fit() const {
@@ -257,6 +386,10 @@ std::uint64_t Identifier::samples_held_out() const {
   return n_ ? total / static_cast<std::uint64_t>(n_) : 0;
 }
 
+namespace {
+constexpr int kRows = 128;  // rows per batch of a joint's normal equations
+}  // namespace
+
 void Identifier::begin_block() {
   if (static_cast<int>(blocks_.size()) == kMaxBlocks) {
     std::vector<Block> merged;
@@ -270,31 +403,64 @@ void Identifier::begin_block() {
   block_start_ = t_log_;
 }
 
+void Identifier::flush_rows(std::size_t joint, bool held_out) const {
+  RowBuffer& buffer = (held_out ? held_rows_ : fit_rows_)[joint];
+  if (buffer.rows == 0) return;
+  JointStats& sums = (held_out ? held_joint_ : block_joint_)[joint];
+  const Eigen::Index m = columns_ - buffer.first;
+  const auto Z = buffer.Z.topRows(buffer.rows).rightCols(m);
+  const auto e = buffer.e.head(buffer.rows);
+  // The lower triangle of Z^T Z, over the columns any of the rows has nonzero.
+  sums.G.bottomRightCorner(m, m).selfadjointView<Eigen::Lower>().rankUpdate(Z.transpose());
+  sums.c.tail(m).noalias() += Z.transpose() * e;
+  sums.s += e.squaredNorm();
+  buffer.rows = 0;
+  buffer.first = columns_;
+}
+
+void Identifier::flush() const {
+  for (std::size_t i = 0; i < held_rows_.size(); ++i) flush_rows(i, true);
+  for (std::size_t i = 0; i < fit_rows_.size(); ++i) flush_rows(i, false);
+  if (blocks_.empty()) return;
+  Block& block = blocks_.back();
+  for (std::size_t i = 0; i < block_joint_.size(); ++i) {
+    JointStats& sums = block_joint_[i];
+    if (sums.s == 0 && sums.c.isZero(0.0) && sums.G.isZero(0.0)) continue;
+    block.A += sums.G;
+    block.b += sums.c;
+    fit_joint_[i].G += sums.G;
+    fit_joint_[i].c += sums.c;
+    fit_joint_[i].s += sums.s;
+    sums.G.setZero();
+    sums.c.setZero();
+    sums.s = 0;
+  }
+}
+
 void Identifier::accumulate(const Eigen::MatrixXd& Z, const Eigen::VectorXd& e, bool held_out) {
   auto& joints = held_out ? held_joint_ : fit_joint_;
-  Block* block = nullptr;
-  if (!held_out) {
-    if (blocks_.empty() || t_log_ - block_start_ >= block_length_) begin_block();
-    block = &blocks_.back();
+  if (!held_out && (blocks_.empty() || t_log_ - block_start_ >= block_length_)) {
+    flush();  // the rows so far belong to the block that ends here
+    begin_block();
   }
-  const Eigen::Index m = Z.cols();
+  auto& buffers = held_out ? held_rows_ : fit_rows_;
   for (int i = 0; i < n_; ++i) {
     if (Z.row(i).isZero(0.0) && e[i] == 0.0) continue;  // a row that does not count
-    JointStats& s = joints[static_cast<std::size_t>(i)];
-    // The lower triangles of the row's outer product, added to the joint's and the block's
-    // normal equations at once, skipping the zero entries (each row has 2 of the 2 n friction
-    // columns): a hand-written rank-1 update costs a tenth of Eigen's general one at this size.
-    row_ = Z.row(i).transpose();
-    for (Eigen::Index c = 0; c < m; ++c) {
-      const double zc = row_[c];
-      if (zc == 0.0) continue;
-      s.G.col(c).tail(m - c).noalias() += zc * row_.tail(m - c);
-      if (block) block->A.col(c).tail(m - c).noalias() += zc * row_.tail(m - c);
+    const auto j = static_cast<std::size_t>(i);
+    RowBuffer& buffer = buffers[j];
+    if (buffer.Z.rows() == 0) {
+      buffer.Z.setZero(kRows, columns_);
+      buffer.e.setZero(kRows);
+      buffer.first = columns_;
     }
-    s.c.noalias() += row_ * e[i];
-    s.s += e[i] * e[i];
-    ++s.count;
-    if (block) block->b.noalias() += row_ * e[i];
+    buffer.Z.row(buffer.rows) = Z.row(i);
+    buffer.e[buffer.rows] = e[i];
+    Eigen::Index first = 0;
+    while (first < buffer.first && Z(i, first) == 0.0) ++first;
+    buffer.first = std::min(buffer.first, first);
+    ++buffer.rows;
+    ++joints[j].count;
+    if (buffer.rows == kRows) flush_rows(j, held_out);
   }
 }
 
@@ -327,6 +493,7 @@ std::unique_ptr<Identifier> Identifier::snapshot() const {
   IdentifyOptions options = options_;
   options.friction_probe = false;
   options.velocity_noise_draws = 0;
+  flush();
   auto copy = std::make_unique<Identifier>(model_, options);
   copy->blocks_ = blocks_;
   copy->block_start_ = block_start_;
@@ -412,7 +579,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   if (!std::isfinite(t) || !q.allFinite() || !dq.allFinite() || !tau_m.allFinite()) {
     ++skipped_;
     started_ = false;
-    if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
+    probe_add(t, q, dq, tau_m);
     return;
   }
   double dt = 0;
@@ -421,7 +588,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     if (!(dt > 0)) {
       ++skipped_;
       started_ = false;
-      if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
+      probe_add(t, q, dq, tau_m);
       return;
     }
     t_log_ += dt;  // time goes on through gaps and bad rows: held-out segments stay aligned
@@ -434,7 +601,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   }
   have_time_ = true;
   t_previous_ = t;
-  if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
+  probe_add(t, q, dq, tau_m);
   for (int j = 0; j < n_; ++j) {
     friction_(j, 0) = std::tanh(dq[j] / options_.coulomb_speed);
     friction_(j, 1) = dq[j];
@@ -563,10 +730,13 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     any_counted = any_counted || t >= count_from_[i];
   }
   if (!any_counted) return;
-  const Eigen::MatrixXd W = k * (Yp_ - g * Fp_) + g * Fb_;
-  const Eigen::VectorXd y = g * Fy_ - k * (pk_ - g * Fpk_);
-  Eigen::VectorXd e = y - W * theta_nominal_;
-  Eigen::MatrixXd Z = Eigen::MatrixXd::Zero(n_, columns_);
+  Eigen::MatrixXd& W = W_;
+  W.noalias() = k * (Yp_ - g * Fp_) + g * Fb_;
+  Eigen::VectorXd& e = e_;
+  e.noalias() = g * Fy_ - k * (pk_ - g * Fpk_);
+  e.noalias() -= W * theta_nominal_;
+  Eigen::MatrixXd& Z = Z_;
+  Z.setZero(n_, columns_);
   for (int j = 0; j < fitted_; ++j) Z.col(j) = W.col(selected_[static_cast<std::size_t>(j)]);
   if (options_.fit_friction) {
     for (int i = 0; i < n_; ++i) {
@@ -620,6 +790,7 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
   // The friction-model term; a log with too little fast motion for the probe has none.
   Eigen::VectorXd friction_shift = Eigen::VectorXd::Zero(shift.size());
   Eigen::VectorXd coulomb_probe = Eigen::VectorXd::Zero(n_), viscous_probe = Eigen::VectorXd::Zero(n_);
+  if (probe_feed_) probe_feed_->drain();
   if (friction_probe_ && friction_probe_->samples_fit() > 0) {
     const IdentifySummary probe = friction_probe_->solve_one(nullptr);
     friction_shift = probe.delta_unprojected - s.delta_unprojected;
@@ -651,6 +822,7 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
 
 IdentifySummary Identifier::solve_one(const Eigen::VectorXd* current) const {
   const int n = n_, pi = fitted_, pf = columns_ - fitted_, p = kBodyParameters * n;
+  flush();
   if (samples_fit() == 0) {
     throw Error("dynfit: no sample to fit (the logs are shorter than the filter's settling time "
                 "or every sample was held out)");
