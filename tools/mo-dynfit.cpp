@@ -65,6 +65,9 @@ int main(int argc, char** argv) {
                  "seconds of log those fits run over, 0 all (default 600)")
       ->type_name("S");
 
+  app.add_option("--friction-probe-seconds", options.friction_probe_seconds,
+                 "seconds of log the friction-model probe runs over, 0 all (default 3600)")
+      ->type_name("S");
   options.threads = 2;
   app.add_option("--threads", options.threads,
                  "threads: 2 (default) fits the friction probe beside the fit; the results do not depend on it")

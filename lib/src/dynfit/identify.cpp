@@ -171,6 +171,8 @@ bool IdentifyOptions::IsValid(std::string* why) const {
     return reject(why, "velocity-noise seconds must be >= 0");
   if (velocity_noise_samples < 10) return reject(why, "velocity-noise samples must be >= 10");
   if (threads < 1) return reject(why, "threads must be >= 1");
+  if (!(friction_probe_seconds >= 0) || !std::isfinite(friction_probe_seconds))
+    return reject(why, "friction-probe seconds must be >= 0");
   return true;
 }
 
@@ -318,6 +320,7 @@ Identifier::~Identifier() = default;
 
 void Identifier::probe_add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
                            const Eigen::VectorXd& tau_m) {
+  if (probe_reference_) return;
   if (probe_feed_) {
     probe_feed_->add(t, q, dq, tau_m);
   } else if (friction_probe_) {
@@ -326,6 +329,7 @@ void Identifier::probe_add(double t, const Eigen::VectorXd& q, const Eigen::Vect
 }
 
 void Identifier::probe_restart() {
+  if (probe_reference_) return;
   if (probe_feed_) {
     probe_feed_->restart();
   } else if (friction_probe_) {
@@ -470,6 +474,9 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
     throw Error("dynfit: a sample has the wrong number of joints");
   }
   add_sample(t, q, dq, tau_m);
+  if (friction_probe_ && !probe_reference_ && options_.friction_probe_seconds > 0 &&
+      t_log_ >= options_.friction_probe_seconds)
+    probe_reference_ = snapshot();  // the probe has seen its share of the log
   const std::uint64_t index = sample_index_++;
   if (options_.velocity_noise_draws == 0) return;
   if (!copies_started_) {
@@ -793,9 +800,10 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
   if (probe_feed_) probe_feed_->drain();
   if (friction_probe_ && friction_probe_->samples_fit() > 0) {
     const IdentifySummary probe = friction_probe_->solve_one(nullptr);
-    friction_shift = probe.delta_unprojected - s.delta_unprojected;
-    coulomb_probe = probe.coulomb - s.coulomb;
-    viscous_probe = probe.viscous - s.viscous;
+    const IdentifySummary reference = probe_reference_ ? probe_reference_->solve_one(nullptr) : s;
+    friction_shift = probe.delta_unprojected - reference.delta_unprojected;
+    coulomb_probe = probe.coulomb - reference.coulomb;
+    viscous_probe = probe.viscous - reference.viscous;
     s.friction_probe_min_speed = friction_probe_->options_.min_speed;
   }
   // The friction levels' uncertainty, combined in the same way.

@@ -94,8 +94,12 @@ struct IdentifyOptions {
   // the fit of the same rows, so a longer log costs one fit, not 1 + draws, past this.
   double velocity_noise_seconds = 600;
   std::uint64_t seed = 1;
-  // Fit again with min_speed doubled (at least 0.1 rad/s) for the friction-model term.
+  // Fit again with min_speed doubled (at least 0.1 rad/s) for the friction-model term, over
+  // the first friction_probe_seconds of log (>= 0; 0: all of it). Its shift is measured against
+  // the fit of the same rows (a snapshot there), as the velocity-noise copies' is: the friction
+  // model's error belongs to the motion, not to how long the log is.
   bool friction_probe = true;
+  double friction_probe_seconds = 3600;
   // Threads (>= 1): with 2 or more, the friction probe runs on a second thread, fed the same
   // samples in batches. The results are the same, bit for bit, for any number.
   int threads = 1;
@@ -269,6 +273,9 @@ class Identifier {
   // Drained (every sample handed over processed) before the probe is read.
   class ProbeFeed;
   mutable std::unique_ptr<ProbeFeed> probe_feed_;
+  // This fit's normal equations when the probe stopped (friction_probe_seconds), what its
+  // shift is measured against; null while it runs.
+  std::unique_ptr<Identifier> probe_reference_;
   void probe_add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m);
   void probe_restart();
 
