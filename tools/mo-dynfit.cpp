@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
       ->type_name("S");
 
   app.add_option("--friction-probe-seconds", options.friction_probe_seconds,
-                 "seconds of log the friction-model probe runs over, 0 all (default 3600)")
+                 "seconds of log the friction-model probe runs over (default 0: all)")
       ->type_name("S");
   options.threads = 2;
   app.add_option("--threads", options.threads,
