@@ -7,12 +7,16 @@
 # LuGre, sensors of a real controller) in multisine and paper motion, collision-free, binary
 # streams. Simulating them is not timed (2 files at a time; with --work they are kept and
 # reused). The night, each step timed for wall, CPU and peak memory:
-#   1. mo-dynfit on every hour: the inertial corrections (held-out check inside);
-#   2. mo-observe every hour with the corrected profile (2 at a time);
-#   3. mo-lugre-fit on the odd hours (the calibration part, as nightly-recalibrate.sh splits);
-#   4. mo-observe the calibration part again with the fitted friction (2 at a time);
-#   5. mo-calibrate on it;
-#   6. mo-detect on the even hours (the check part): the count of events must be 0.
+#   1. mo-dynfit on every hour: the inertial corrections (held-out check inside; a step the
+#      issue's night has and share/momentum/examples/nightly-recalibrate.sh does not run yet);
+# then the commands of nightly-recalibrate.sh --jobs 2, with the corrected profile in place:
+#   2. mo-observe --strict every hour with it (2 at a time);
+#   3. mo-lugre-fit --seed 1 on the 1st, 3rd, ... hours (the calibration part, as the script
+#      splits);
+#   4. mo-observe --strict every hour again with the fitted friction (2 at a time);
+#   5. mo-calibrate --reject-contact --strict on the calibration part;
+#   6. mo-detect on the 2nd, 4th, ... hours (the check part) with the candidate, and with the
+#      profile in place: the candidate's count of events must be 0.
 # The issue's targets on 2 cores: the whole night under 2 minutes and under 100 MB.
 set -euo pipefail
 hours=8 rate=1000 work="" keep=0
@@ -21,7 +25,7 @@ while (($#)); do
     --hours) hours=${2:?}; shift 2 ;;
     --rate) rate=${2:?}; shift 2 ;;
     --work) work=${2:?}; keep=1; shift 2 ;;
-    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "bench-nightly: unknown option $1" >&2; exit 2 ;;
     *) break ;;
   esac
@@ -95,19 +99,19 @@ corrected=$work/night/corrected.json
 
 # (The commands go through a file: a pipe into step would run it in a subshell, losing the totals.)
 for f in "${logs[@]}"; do
-  echo "mo-observe -q -p '$corrected' --output-format bin -o '$work/night/old-$(basename "$f")' '$f'"
+  echo "mo-observe -q --strict -p '$corrected' --output-format bin -o '$work/night/old-$(basename "$f")' '$f'"
 done > "$work/night/commands"
 step "2. mo-observe, ${#logs[@]} h, 2 at a time" -P < "$work/night/commands"
 
 old_calibration=()
 for f in "${calibration[@]}"; do old_calibration+=("$work/night/old-$(basename "$f")"); done
 step "3. mo-lugre-fit, ${#calibration[@]} h" \
-  mo-lugre-fit -q -p "$corrected" -o "$work/night/fitted.json" --report "$work/night/lugre.json" "${old_calibration[@]}"
+  mo-lugre-fit -q --seed 1 -p "$corrected" -o "$work/night/fitted.json" --report "$work/night/lugre.json" "${old_calibration[@]}"
 fitted=$work/night/fitted.json
 [[ -s $fitted ]] || { echo "bench-nightly: mo-lugre-fit wrote no profile" >&2; exit 1; }
 
 for f in "${calibration[@]}" "${check[@]}"; do
-  echo "mo-observe -q -p '$fitted' --output-format bin -o '$work/night/new-$(basename "$f")' '$f'"
+  echo "mo-observe -q --strict -p '$fitted' --output-format bin -o '$work/night/new-$(basename "$f")' '$f'"
 done > "$work/night/commands"
 step "4. mo-observe with the fitted friction, ${#logs[@]} h" -P < "$work/night/commands"
 
@@ -116,16 +120,31 @@ for f in "${calibration[@]}"; do new_calibration+=("$work/night/new-$(basename "
 for f in "${check[@]}"; do new_check+=("$work/night/new-$(basename "$f")"); done
 step "5. mo-calibrate, ${#calibration[@]} h" \
   sh -c 'report=$1; shift; exec mo-calibrate "$@" > "$report"' sh "$work/night/calibration.txt" \
-  -q -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}"
+  -q --reject-contact --strict -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}"
 
-for f in "${new_check[@]}"; do
-  echo "mo-detect -q -p '$work/night/calibrated.json' '$f' > '$f.events.csv'; [ \$? -le 1 ]"
+if [[ ! -s $work/night/calibrated.json ]]; then
+  # The script would end the night here, keeping the profile in place (see calibration.txt
+  # for the outlier): the check is timed on thresholds calibrated without --reject-contact,
+  # made here untimed.
+  echo "   mo-calibrate refused the calibration part: nightly-recalibrate.sh keeps the profile here;" \
+    "step 6 runs on thresholds calibrated without --reject-contact (not timed)"
+  mo-calibrate -q --strict -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}" \
+    > "$work/night/calibration-accepting.txt" || true
+fi
+
+# (The profile in place may hold no thresholds: mo-detect's status 2, which the script counts
+# as none.)
+for f in "${check[@]}"; do
+  new=$work/night/new-$(basename "$f") old=$work/night/old-$(basename "$f")
+  echo "mo-detect -q -p '$work/night/calibrated.json' '$new' > '$new.events.csv'; [ \$? -le 1 ]"
+  echo "mo-detect -q -p '$corrected' '$old' > '$old.events.csv' 2> /dev/null; [ \$? -le 2 ]"
 done > "$work/night/commands"
 step "6. mo-detect on the check part, ${#check[@]} h" -P < "$work/night/commands"
 events=$(cat "$work"/night/new-*.events.csv 2>/dev/null | grep -c ',onset,' || true)
 
 printf '%-44s wall %7.2f s  cpu %7.2f s  peak %6.1f MB\n' "the night" "$total_wall" "$total_cpu" "$(echo "$peak / 1024" | bc -l)"
-echo "events on the check part: $events (collision-free: should be 0)"
+old_events=$(cat "$work"/night/old-*.events.csv 2>/dev/null | grep -c ',onset,' || true)
+echo "events on the check part: $events (collision-free: should be 0); with the profile in place: $old_events"
 python3 - "$work/night/dynfit.json" "$work/night/lugre.json" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))

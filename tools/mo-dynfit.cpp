@@ -66,6 +66,14 @@ int main(int argc, char** argv) {
                  "seconds of log those fits run over, 0 all (default 600)")
       ->type_name("S");
 
+  app.add_option("--friction-probe-seconds", options.friction_probe_seconds,
+                 "seconds of log the friction-model probe runs over (default 0: all)")
+      ->type_name("S");
+  options.threads = 2;
+  app.add_option("--threads", options.threads,
+                 "threads: 2 (default) fits the friction probe beside the fit; the results do not depend on it")
+      ->type_name("N");
+
   return tool.run(argc, argv, [&] {
     const auto start = std::chrono::steady_clock::now();
     if (update && !output.empty()) throw cli::UsageError("--update and -o are exclusive");

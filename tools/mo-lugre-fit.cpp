@@ -231,7 +231,7 @@ int main(int argc, char** argv) {
       } else {
         if (more.size() != series.size())
           throw Error(in->name() + ": has other joints than " + inputs.front());
-        for (std::size_t i = 0; i < more.size(); ++i) fit::append_series(series[i], more[i]);
+        fit::append_log(series, more);
       }
     }
     std::vector<observer::Gains> gains;

@@ -20,18 +20,19 @@ const momentum::observer::Gains kObserver{50.0, 0.2, 0.0};  // the paper arm's
 fit::JointSeries two_joint_motion() {
   fit::JointSeries s;
   s.joint = 2;
-  s.positions.resize(2);
+  auto positions = std::make_shared<fit::Positions>(2);
   const double w = 2 * std::numbers::pi * 0.2;
   for (int k = 0; k < 2000; ++k) {
     const double t = 0.008 * k;
     s.t.push_back(t);
-    s.positions[0].push_back(0.6 * std::sin(w * t));
-    s.positions[1].push_back(0.7 + 0.6 * std::sin(w * t + 0.5));
+    (*positions)[0].push_back(0.6 * std::sin(w * t));
+    (*positions)[1].push_back(0.7 + 0.6 * std::sin(w * t + 0.5));
     s.dq.push_back(0.6 * w * std::cos(w * t + 0.5));
     s.r.push_back(8.0 * (s.dq.back() > 0 ? 1 : -1));
     s.restart.push_back(k == 0 ? 2 : 0);
     s.scored.push_back(1);
   }
+  s.positions = positions;
   return s;
 }
 
@@ -51,7 +52,7 @@ TEST(ResidualSplit, GravityErrorIsPositionDependent) {
   std::normal_distribution<double> noise(0.0, 0.05);
   std::vector<double> torque(s.size());
   for (std::size_t k = 0; k < s.size(); ++k)
-    torque[k] = 0.8 * std::sin(s.positions[1][k]) + 0.3 * std::sin(s.positions[0][k] + s.positions[1][k]);
+    torque[k] = 0.8 * std::sin((*s.positions)[1][k]) + 0.3 * std::sin((*s.positions)[0][k] + (*s.positions)[1][k]);
   auto e = observed(s, torque);
   double var_signal = 0, mean = 0;
   for (double v : e) mean += v / static_cast<double>(e.size());
@@ -86,6 +87,6 @@ TEST(ResidualSplit, VelocityMisfitAndNoiseAreNot) {
 
 TEST(ResidualSplit, NotComputedWithoutPositions) {
   auto s = two_joint_motion();
-  s.positions.clear();
+  s.positions.reset();
   EXPECT_FALSE(fit::split_residual(s, kObserver, std::vector<double>(s.size(), 0.0)).computed);
 }

@@ -3,8 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <deque>
+#include <exception>
 #include <limits>
+#include <mutex>
+#include <thread>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -166,6 +171,9 @@ bool IdentifyOptions::IsValid(std::string* why) const {
   if (!(velocity_noise_seconds >= 0) || !std::isfinite(velocity_noise_seconds))
     return reject(why, "velocity-noise seconds must be >= 0");
   if (velocity_noise_samples < 10) return reject(why, "velocity-noise samples must be >= 10");
+  if (threads < 1) return reject(why, "threads must be >= 1");
+  if (!(friction_probe_seconds >= 0) || !std::isfinite(friction_probe_seconds))
+    return reject(why, "friction-probe seconds must be >= 0");
   return true;
 }
 
@@ -199,11 +207,133 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
     probe.min_speed = std::max(2 * options_.min_speed, 0.1);
     probe.friction_probe = false;
     probe.velocity_noise_draws = 0;
+    probe.threads = 1;
     friction_probe_ = std::make_unique<Identifier>(nominal, probe);
+    if (options_.threads > 1) probe_feed_ = std::make_unique<ProbeFeed>(*friction_probe_, n_);
   }
 }
 
+// The probe's samples and restarts, in order, in batches handed to a thread of its own. The
+// probe does exactly what it would do fed here, so the results do not depend on the threads.
+class Identifier::ProbeFeed {
+ public:
+  ProbeFeed(Identifier& probe, int n) : probe_(probe), n_(n), worker_([this] { run(); }) {}
+  ~ProbeFeed() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    ready_.notify_all();
+    worker_.join();
+  }
+  void add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m) {
+    filling_.restart.push_back(0);
+    filling_.values.push_back(t);
+    filling_.values.insert(filling_.values.end(), q.data(), q.data() + n_);
+    filling_.values.insert(filling_.values.end(), dq.data(), dq.data() + n_);
+    filling_.values.insert(filling_.values.end(), tau_m.data(), tau_m.data() + n_);
+    if (filling_.restart.size() >= kBatch) hand_over();
+  }
+  void restart() {
+    filling_.restart.push_back(1);
+    if (filling_.restart.size() >= kBatch) hand_over();
+  }
+  // Returns when the probe has seen every sample; rethrows what it threw.
+  void drain() {
+    hand_over();
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return queue_.empty() && !busy_; });
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  static constexpr std::size_t kBatch = 4096;
+  static constexpr std::size_t kQueued = 4;  // batches waiting at most (bounded memory)
+  struct Batch {
+    std::vector<std::uint8_t> restart;  // per entry: 1 a restart, 0 a sample (1 + 3 n values)
+    std::vector<double> values;
+  };
+  void hand_over() {
+    if (filling_.restart.empty()) return;
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return queue_.size() < kQueued; });
+    queue_.push_back(std::move(filling_));
+    lock.unlock();
+    ready_.notify_one();
+    filling_ = Batch{};
+    filling_.restart.reserve(kBatch);
+    filling_.values.reserve(kBatch * static_cast<std::size_t>(1 + 3 * n_));
+  }
+  void run() {
+    Eigen::VectorXd q(n_), dq(n_), tau(n_);
+    for (;;) {
+      Batch batch;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        ready_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        if (queue_.empty()) return;
+        batch = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+      }
+      done_.notify_all();  // room in the queue
+      if (!error_) {
+        try {
+          const double* v = batch.values.data();
+          for (const std::uint8_t restart : batch.restart) {
+            if (restart) {
+              probe_.restart_sample();
+              continue;
+            }
+            const double t = *v++;
+            for (int j = 0; j < n_; ++j) q[j] = *v++;
+            for (int j = 0; j < n_; ++j) dq[j] = *v++;
+            for (int j = 0; j < n_; ++j) tau[j] = *v++;
+            probe_.add_sample(t, q, dq, tau);
+          }
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          error_ = std::current_exception();
+        }
+      }
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        busy_ = false;
+      }
+      done_.notify_all();
+    }
+  }
+  Identifier& probe_;
+  const int n_;
+  Batch filling_;
+  std::mutex mutex_;
+  std::condition_variable ready_, done_;
+  std::deque<Batch> queue_;
+  bool busy_ = false, stop_ = false;
+  std::exception_ptr error_;
+  std::thread worker_;  // last: starts once everything above is in place
+};
+
 Identifier::~Identifier() = default;
+
+void Identifier::probe_add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
+                           const Eigen::VectorXd& tau_m) {
+  if (probe_reference_) return;
+  if (probe_feed_) {
+    probe_feed_->add(t, q, dq, tau_m);
+  } else if (friction_probe_) {
+    friction_probe_->add_sample(t, q, dq, tau_m);
+  }
+}
+
+void Identifier::probe_restart() {
+  if (probe_reference_) return;
+  if (probe_feed_) {
+    probe_feed_->restart();
+  } else if (friction_probe_) {
+    friction_probe_->restart_sample();
+  }
+}
 
 void Identifier::Grid::add(double k_, double t_) {
   n += 1;
@@ -243,7 +373,7 @@ void Identifier::restart_sample() {
   t_log_ = options_.holdout_segment * std::ceil(t_log_ / options_.holdout_segment + 1e-9);
   started_ = false;
   have_time_ = false;
-  if (friction_probe_) friction_probe_->restart_sample();
+  probe_restart();
 }
 
 std::uint64_t Identifier::samples_fit() const {
@@ -305,6 +435,9 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
     throw Error("dynfit: a sample has the wrong number of joints");
   }
   add_sample(t, q, dq, tau_m);
+  if (friction_probe_ && !probe_reference_ && options_.friction_probe_seconds > 0 &&
+      t_log_ >= options_.friction_probe_seconds)
+    probe_reference_ = snapshot();  // the probe has seen its share of the log
   const std::uint64_t index = sample_index_++;
   if (options_.velocity_noise_draws == 0) return;
   if (!copies_started_) {
@@ -398,7 +531,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   if (!std::isfinite(t) || !q.allFinite() || !dq.allFinite() || !tau_m.allFinite()) {
     ++skipped_;
     started_ = false;
-    if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
+    probe_add(t, q, dq, tau_m);
     return;
   }
   double dt = 0;
@@ -407,7 +540,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     if (!(dt > 0)) {
       ++skipped_;
       started_ = false;
-      if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
+      probe_add(t, q, dq, tau_m);
       return;
     }
     t_log_ += dt;  // time goes on through gaps and bad rows: held-out segments stay aligned
@@ -420,7 +553,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   }
   have_time_ = true;
   t_previous_ = t;
-  if (friction_probe_) friction_probe_->add_sample(t, q, dq, tau_m);
+  probe_add(t, q, dq, tau_m);
   for (int j = 0; j < n_; ++j) {
     friction_(j, 0) = std::tanh(dq[j] / options_.coulomb_speed);
     friction_(j, 1) = dq[j];
@@ -606,11 +739,13 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
   // The friction-model term; a log with too little fast motion for the probe has none.
   Eigen::VectorXd friction_shift = Eigen::VectorXd::Zero(shift.size());
   Eigen::VectorXd coulomb_probe = Eigen::VectorXd::Zero(n_), viscous_probe = Eigen::VectorXd::Zero(n_);
+  if (probe_feed_) probe_feed_->drain();
   if (friction_probe_ && friction_probe_->samples_fit() > 0) {
     const IdentifySummary probe = friction_probe_->solve_one(nullptr);
-    friction_shift = probe.delta_unprojected - s.delta_unprojected;
-    coulomb_probe = probe.coulomb - s.coulomb;
-    viscous_probe = probe.viscous - s.viscous;
+    const IdentifySummary reference = probe_reference_ ? probe_reference_->solve_one(nullptr) : s;
+    friction_shift = probe.delta_unprojected - reference.delta_unprojected;
+    coulomb_probe = probe.coulomb - reference.coulomb;
+    viscous_probe = probe.viscous - reference.viscous;
     s.friction_probe_min_speed = friction_probe_->options_.min_speed;
   }
   // The friction levels' uncertainty, combined in the same way.

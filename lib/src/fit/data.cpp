@@ -42,16 +42,33 @@ bool SelectOptions::IsValid(std::string* why) const {
   return true;
 }
 
-void append_series(JointSeries& into, const JointSeries& more) {
-  if (more.size() == 0) return;
-  if (into.size() == 0) {
-    into = more;
-    return;
+namespace {
+
+// `into` then `more`, column by column; null when either has none or their joints differ.
+std::shared_ptr<const Positions> append_positions(const JointSeries& into, const JointSeries& more) {
+  if (!into.has_positions() || !more.has_positions() || into.positions->size() != more.positions->size())
+    return nullptr;
+  auto out = std::make_shared<Positions>(into.positions->size());
+  for (std::size_t j = 0; j < out->size(); ++j) {
+    auto& q = (*out)[j];
+    q.reserve((*into.positions)[j].size() + (*more.positions)[j].size());
+    q.insert(q.end(), (*into.positions)[j].begin(), (*into.positions)[j].end());
+    q.insert(q.end(), (*more.positions)[j].begin(), (*more.positions)[j].end());
   }
+  return out;
+}
+
+void append_samples(JointSeries& into, const JointSeries& more) {
   double step = into.median_dt();
   if (!(step > 0)) step = more.median_dt();
   if (!(step > 0)) step = 1.0;
   const double shift = into.t.back() + step - more.t.front();
+  const std::size_t total = into.size() + more.size();
+  into.t.reserve(total);
+  into.dq.reserve(total);
+  into.r.reserve(total);
+  into.restart.reserve(total);
+  into.scored.reserve(total);
   for (std::size_t k = 0; k < more.size(); ++k) {
     into.t.push_back(more.t[k] + shift);
     into.dq.push_back(more.dq[k]);
@@ -59,13 +76,50 @@ void append_series(JointSeries& into, const JointSeries& more) {
     into.restart.push_back(k == 0 ? 2 : more.restart[k]);
     into.scored.push_back(more.scored[k]);
   }
-  if (into.positions.size() == more.positions.size()) {
-    for (std::size_t j = 0; j < into.positions.size(); ++j)
-      into.positions[j].insert(into.positions[j].end(), more.positions[j].begin(), more.positions[j].end());
-  } else {
-    into.positions.clear();  // one log without positions: none for the whole series
-  }
   if (into.source != more.source) into.source += ", " + more.source;
+}
+
+}  // namespace
+
+void append_series(JointSeries& into, const JointSeries& more) {
+  if (more.size() == 0) return;
+  if (into.size() == 0) {
+    into = more;
+    return;
+  }
+  into.positions = append_positions(into, more);  // one log without positions: none at all
+  append_samples(into, more);
+}
+
+void append_log(std::vector<JointSeries>& into, const std::vector<JointSeries>& more) {
+  if (into.empty()) {
+    into = more;
+    return;
+  }
+  if (into.size() != more.size()) throw Error("append_log: the logs have different joints");
+  // Joints that shared their positions in both logs share the appended ones too.
+  std::vector<std::pair<std::pair<const Positions*, const Positions*>, std::shared_ptr<const Positions>>> done;
+  for (std::size_t i = 0; i < into.size(); ++i) {
+    if (more[i].size() == 0) continue;
+    if (into[i].size() == 0) {
+      into[i] = more[i];
+      continue;
+    }
+    const std::pair<const Positions*, const Positions*> key{into[i].positions.get(), more[i].positions.get()};
+    std::shared_ptr<const Positions> positions;
+    bool found = false;
+    for (const auto& [k, p] : done)
+      if (k == key) {
+        positions = p;
+        found = true;
+      }
+    if (!found) {
+      positions = append_positions(into[i], more[i]);
+      done.push_back({key, positions});
+    }
+    into[i].positions = std::move(positions);
+    append_samples(into[i], more[i]);
+  }
 }
 
 double estimate_velocity_noise(const JointSeries& s) {
@@ -103,12 +157,24 @@ void keep_samples(JointSeries& s, Keep keep) {
     s.r[out] = s.r[k];
     s.restart[out] = s.restart[k];
     s.scored[out] = s.scored[k];
-    for (auto& q : s.positions) q[out] = q[k];
     ++out;
   }
   for (auto* v : {&s.t, &s.dq, &s.r}) v->resize(out);
   for (auto* v : {&s.restart, &s.scored}) v->resize(out);
-  for (auto& q : s.positions) q.resize(out);
+}
+
+// The same for the positions read (one table for every joint, with its own times).
+template <class Keep>
+void keep_positions(std::vector<double>& t, Positions& q, Keep keep) {
+  std::size_t out = 0;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (!keep(t[k])) continue;
+    t[out] = t[k];
+    for (auto& column : q) column[out] = column[k];
+    ++out;
+  }
+  t.resize(out);
+  for (auto& column : q) column.resize(out);
 }
 
 }  // namespace
@@ -137,7 +203,10 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
   std::vector<std::size_t> q_col;
   for (std::size_t k = 1; k <= stream::count_joint_columns(in.columns(), "q"); ++k)
     q_col.push_back(in.require("q" + std::to_string(k)));
-  for (auto& s : series) s.positions.resize(q_col.size());
+  // The positions of every row a joint may keep, once for all joints (with their times); each
+  // joint gets them (shared) at the end.
+  Positions table(q_col.size());
+  std::vector<double> table_t;
 
   std::vector<std::uint8_t> pending(joints.size(), 1);  // next good row restarts the joint
   bool have_time = false;
@@ -174,6 +243,10 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
                         (!options.window_begin || stream_t >= *options.window_begin);
     bool positions_ok = true;
     for (std::size_t c : q_col) positions_ok = positions_ok && std::isfinite(row[c]);
+    if (positions_ok && !q_col.empty()) {
+      table_t.push_back(t);
+      for (std::size_t c = 0; c < q_col.size(); ++c) table[c].push_back(row[q_col[c]]);
+    }
     for (std::size_t i = 0; i < joints.size(); ++i) {
       const double dq = row[dq_col[i]], r = row[r_col[i]];
       if (!std::isfinite(dq) || !std::isfinite(r) || !positions_ok) {
@@ -186,7 +259,6 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       s.r.push_back(r);
       s.restart.push_back(s.t.size() == 1 ? 2 : (pending[i] || restart_row ? 1 : 0));
       s.scored.push_back(counts ? 1 : 0);
-      for (std::size_t c = 0; c < q_col.size(); ++c) s.positions[c].push_back(row[q_col[c]]);
       pending[i] = 0;
     }
     // Never below one window: a first window longer than the budget is kept whole.
@@ -194,6 +266,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
         window_of(t) >= stride) {
       stride *= 2;
       for (auto& s : series) keep_samples(s, [&](double t) { return window_of(t) % stride == 0; });
+      keep_positions(table_t, table, [&](double t) { return window_of(t) % stride == 0; });
     }
   }
   if (stride > 1) {
@@ -208,7 +281,29 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       }
     }
   }
+  if (!q_col.empty()) {
+    // Each joint's positions: the table itself when the joint kept every row of it (shared),
+    // else the rows it kept (every sample a joint keeps has its row in the table).
+    for (auto& column : table) column.shrink_to_fit();
+    auto shared = std::make_shared<const Positions>(std::move(table));
+    for (auto& s : series) {
+      if (s.t == table_t) {
+        s.positions = shared;
+        continue;
+      }
+      auto own = std::make_shared<Positions>(shared->size());
+      for (auto& column : *own) column.reserve(s.size());
+      std::size_t row = 0;
+      for (std::size_t k = 0; k < s.size(); ++k) {
+        while (row < table_t.size() && table_t[row] < s.t[k]) ++row;
+        for (std::size_t c = 0; c < own->size(); ++c) (*own)[c].push_back((*shared)[c][row]);
+      }
+      s.positions = std::move(own);
+    }
+  }
   for (auto& s : series) {
+    for (auto* v : {&s.t, &s.dq, &s.r}) v->shrink_to_fit();
+    for (auto* v : {&s.restart, &s.scored}) v->shrink_to_fit();
     // Gaps restart the observer; mark them so the model's filter restarts too.
     const double limit = options.gap_factor * s.median_dt();
     for (std::size_t k = 1; k < s.size(); ++k)

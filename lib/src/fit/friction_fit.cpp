@@ -323,6 +323,24 @@ struct Residuals {
   }
 };
 
+// The upper triangular factor R of a tall matrix a = Q R (a.cols() square), by Householder QR
+// of R stacked on one chunk of rows after another: the memory of a chunk, not a copy of a.
+Eigen::MatrixXd triangular_factor(const Eigen::MatrixXd& a) {
+  constexpr Eigen::Index kChunk = 4096;
+  const Eigen::Index p = a.cols();
+  Eigen::MatrixXd stack(p + kChunk, p);
+  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(p, p);
+  for (Eigen::Index begin = 0; begin < a.rows(); begin += kChunk) {
+    const Eigen::Index rows = std::min(kChunk, a.rows() - begin);
+    stack.topRows(p) = r;
+    stack.middleRows(p, rows) = a.middleRows(begin, rows);
+    Eigen::Ref<Eigen::MatrixXd> block = stack.topRows(p + rows);
+    Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(block);  // in place
+    r = qr.matrixQR().topRows(p).triangularView<Eigen::Upper>();
+  }
+  return r;
+}
+
 // The counted residuals e = r - r_model and their Jacobian d e / d x (x: the free parameters
 // over `scale`, as Residuals) in one pass of the model with N-dual numbers, N the number of free
 // parameters; memory: the m x N result, nothing per sample besides. False where the parameters
@@ -791,6 +809,9 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       column_norm[static_cast<std::size_t>(c)] = norm;
       if (norm > 0) unit.col(c) /= norm;
     }
+    // The singular values and V of a tall J are those of its triangular factor R: factored in
+    // place, no copy of the long matrix beyond `unit`.
+    if (unit.rows() > unit.cols()) unit = triangular_factor(unit);
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(unit, Eigen::ComputeThinV);
     const auto& s = svd.singularValues();
     const Eigen::Index last = s.size() - 1;
@@ -843,7 +864,7 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
     if (!keep.empty() && coarse.size() == static_cast<std::size_t>(jacobian.rows())) {
       Eigen::MatrixXd sub(jacobian.rows(), static_cast<Eigen::Index>(keep.size()));
       for (std::size_t c = 0; c < keep.size(); ++c) sub.col(static_cast<Eigen::Index>(c)) = jacobian.col(keep[c]);
-      const auto qr = sub.colPivHouseholderQr();
+      const Eigen::ColPivHouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(sub);  // in place: no copy
       auto absorb = [&](const Eigen::VectorXd& dy, std::vector<double>& out) {
         const Eigen::VectorXd dx = qr.solve(dy);
         for (std::size_t c = 0; c < keep.size(); ++c) {
@@ -908,7 +929,9 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       const double n = column_norm[static_cast<std::size_t>(kept[c])];
       unit.col(static_cast<Eigen::Index>(c)) = jacobian.col(kept[c]) / (n > 0 ? n : 1.0);
     }
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(unit, Eigen::ComputeThinV);
+    // (Its singular values and V are those of U's triangular factor, which takes no copy of U.)
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(unit.rows() > unit.cols() ? triangular_factor(unit) : unit,
+                                          Eigen::ComputeThinV);
     const auto& sv = svd.singularValues();
     Eigen::MatrixXd c = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(nfree), static_cast<Eigen::Index>(nfree));
     const bool invertible = sv.size() > 0 && sv(sv.size() - 1) > 0 &&

@@ -186,7 +186,7 @@ JointSeries search_subset(const JointSeries& data, const observer::Gains& gains,
     w = end_window;
   }
   out.restart.front() = 2;
-  out.positions.clear();
+  out.positions.reset();
   out.source = data.source;
   s.used = true;
   s.samples = out.size();

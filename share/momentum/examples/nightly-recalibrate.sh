@@ -73,6 +73,7 @@ usage: nightly-recalibrate.sh -p PROFILE [--logs DIR | LOG...] [options]
   --max-increase P        refuse a candidate whose threshold grows by more than P% (default 50)
   --no-friction-fit       keep the friction in place, recalibrate the thresholds only
   --seed N                seed of the friction fit (default 1)
+  -j, --jobs N            logs observed at a time (default 1: a fleet runs one night per core)
   -n, --dry-run           do everything but install
   --json FILE             append one JSON line saying what happened to FILE (- for standard
                           output; then the tools' own standard output goes to standard error)
@@ -82,7 +83,7 @@ EOF
 }
 
 profile="" logs_dir="" backups="" keep=30 log_file="" max_increase=50 seed=1
-dry_run=0 fit_friction=1 json_file="" robot=""
+dry_run=0 fit_friction=1 json_file="" robot="" jobs=1
 calibrate_options=()
 logs=()
 while (($#)); do
@@ -98,6 +99,7 @@ while (($#)); do
     --max-increase) max_increase=${2:?}; shift 2 ;;
     --no-friction-fit) fit_friction=0; shift ;;
     --seed) seed=${2:?}; shift 2 ;;
+    -j|--jobs) jobs=${2:?}; shift 2 ;;
     -n|--dry-run) dry_run=1; shift ;;
     --json) json_file=${2:?}; shift 2 ;;
     --robot) robot=${2:?}; shift 2 ;;
@@ -106,6 +108,10 @@ while (($#)); do
     *) logs+=("$1"); shift ;;
   esac
 done
+if ! [[ $jobs =~ ^[1-9][0-9]*$ ]]; then
+  echo "nightly-recalibrate: --jobs takes a number of logs (>= 1)" >&2
+  exit 2
+fi
 if [[ -z $profile || ! -f $profile ]]; then
   echo "nightly-recalibrate: give the profile in use with -p (a file)" >&2
   exit 2
@@ -353,12 +359,32 @@ say "calibration part: ${calibrate[*]}"
 say "check part: ${check[*]}"
 
 # 2. Observe everything with the profile in place.
-observe() {  # profile log out
-  run mo-observe -q --strict -p "$1" --output-format bin -o "$3" "$2" || return 1
+# Observes the logs of the given indices with a profile into $work/PREFIX-i.bin, --jobs at a
+# time; their messages go to the log in the logs' order. Returns 1 at the first batch holding a
+# log that could not be observed (failed_log: its name).
+failed_log=""
+observe_logs() {  # profile prefix index...
+  local p=$1 prefix=$2 k j status=0
+  shift 2
+  local -a all=("$@") batch pids
+  for ((k = 0; k < ${#all[@]}; k += jobs)); do
+    batch=("${all[@]:k:jobs}") pids=()
+    for j in "${batch[@]}"; do
+      mo-observe -q --strict -p "$p" --output-format bin -o "$work/$prefix-$j.bin" "${logs[j]}" \
+        2> "$work/observe-$j.err" &
+      pids+=($!)
+    done
+    for j in "${!batch[@]}"; do
+      if ! wait "${pids[j]}"; then
+        status=1
+        [[ -n $failed_log ]] || failed_log=${logs[batch[j]]}
+      fi
+      to_log < "$work/observe-${batch[j]}.err"
+    done
+    ((status == 0)) || return 1
+  done
 }
-for i in "${!logs[@]}"; do
-  observe "$profile" "${logs[i]}" "$work/old-$i.bin" || keep_old "cannot observe ${logs[i]} (broken log?)"
-done
+observe_logs "$profile" old "${!logs[@]}" || keep_old "cannot observe $failed_log (broken log?)"
 old_calibration=() old_check=()
 for i in "${!logs[@]}"; do
   if ((i % 2 == 0)); then old_calibration+=("$work/old-$i.bin"); else old_check+=("$work/old-$i.bin"); fi
@@ -376,12 +402,13 @@ if ((fit_friction)); then
 fi
 
 # 4. Thresholds, on residuals compensated with the candidate's friction.
-new_calibration=()
+new_calibration=() even=()
 for i in "${!logs[@]}"; do
   ((i % 2 == 0)) || continue
-  observe "$candidate" "${logs[i]}" "$work/new-$i.bin" || keep_old "cannot observe ${logs[i]} with the candidate"
+  even+=("$i")
   new_calibration+=("$work/new-$i.bin")
 done
+observe_logs "$candidate" new "${even[@]}" || keep_old "cannot observe $failed_log with the candidate"
 if ! run mo-calibrate -q -p "$candidate" --reject-contact --strict "${calibrate_options[@]}" "${new_calibration[@]}" \
     > "$work/calibration.txt"; then
   to_log < "$work/calibration.txt"
@@ -406,12 +433,13 @@ events() {  # profile observed-streams...: prints the number of events, or "none
   done
   echo "$total"
 }
-new_check=()
+new_check=() odd=()
 for i in "${!logs[@]}"; do
   ((i % 2 == 1)) || continue
-  observe "$candidate" "${logs[i]}" "$work/new-$i.bin" || keep_old "cannot observe ${logs[i]} with the candidate"
+  odd+=("$i")
   new_check+=("$work/new-$i.bin")
 done
+observe_logs "$candidate" new "${odd[@]}" || keep_old "cannot observe $failed_log with the candidate"
 new_events=$(events "$candidate" "${new_check[@]}")
 old_events=$(events "$profile" "${old_check[@]}")
 say "check part: candidate $new_events events, profile in place $old_events"

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -11,6 +12,9 @@
 #include "momentum/stream/reader.hpp"
 
 namespace momentum::fit {
+
+// Positions of every joint, [k - 1][sample] for q<k>, rad.
+using Positions = std::vector<std::vector<double>>;
 
 // One joint's samples, in time order.
 struct JointSeries {
@@ -25,9 +29,12 @@ struct JointSeries {
   std::vector<std::uint8_t> restart;
   std::vector<std::uint8_t> scored;    // 1 where the sample counts in the cost and the metrics
   std::string source;                  // the input's name, for messages
-  // Every joint's position at each sample, [k - 1][sample] for q<k>, rad, when the stream has
-  // q1..qn columns (empty otherwise): what a model error depends on (robustness.hpp).
-  std::vector<std::vector<double>> positions;
+  // Every joint's position at each sample, (*positions)[k - 1][sample] for q<k>, rad, when the
+  // stream has q1..qn columns (null otherwise): what a model error depends on (robustness.hpp).
+  // Read-only and shared by the joints of a log that hold the same samples (the usual case):
+  // one copy of the positions, not one per joint.
+  std::shared_ptr<const Positions> positions;
+  bool has_positions() const { return positions && !positions->empty(); }
 
   std::size_t size() const { return t.size(); }
   std::size_t scored_count() const;
@@ -63,6 +70,9 @@ struct SelectOptions {
 // Appends `more` (the same joint from another log) to `into`: its times are shifted to follow
 // on one median step after the last sample, and its first sample restarts everything.
 void append_series(JointSeries& into, const JointSeries& more);
+// The same for every joint of a log (more[i] appended to into[i]), the positions shared by
+// the joints that shared them before. Throws momentum::Error when the joint counts differ.
+void append_log(std::vector<JointSeries>& into, const std::vector<JointSeries>& more);
 
 // Stops counting samples where the measured speed is below `min_speed` (rad/s, > 0), and the
 // `settle` seconds after each of them (the observer filter's memory: about 3 / K1).
