@@ -27,8 +27,7 @@ Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds, bool slow) {
 
 EventContact::EventContact(const model::Model& model, const detect::Thresholds& thresholds,
                            std::optional<ClassRule> rule, LocatorOptions options)
-    : model_(&model),
-      rule_(std::move(rule)),
+    : rule_(std::move(rule)),
       weight_(noise_scale(thresholds).cwiseInverse()),
       slow_weight_(noise_scale(thresholds, true).cwiseInverse()),
       rest_rule_(thresholds.rest_rule),
@@ -88,8 +87,8 @@ void EventContact::annotate(detect::Event& event) {
     window_.open(event.t_onset_estimate);
     decided_ = EventClass::unknown;
     decision_reported_ = false;
-    // Already over a collision level, or already past the rise time, at detection: the onset
-    // row says so, and decide() still reports it once for the hooks.
+    // Already over a collision level, or the pulse already over or wider than the rule's width,
+    // at detection: the onset row says so, and decide() still reports it once for the hooks.
     if (decide()) decision_reported_ = false;
     fill(event, false);
   } else {

@@ -54,7 +54,6 @@ class EventContact {
 
  private:
   void fill(detect::Event& event, bool whole);
-  const model::Model* model_;
   std::optional<ClassRule> rule_;
   Eigen::VectorXd weight_, slow_weight_;  // 1 / noise scale, moving and slow
   detect::RestRule rest_rule_;
