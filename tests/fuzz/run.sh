@@ -30,7 +30,7 @@ version=$(sed -n 's/^project(momentum VERSION \([0-9.]*\).*/\1/p' "$src/CMakeLis
 sed "s/@PROJECT_VERSION@/$version/" "$src/lib/include/momentum/version.hpp.in" > "$work/generated/momentum/version.hpp"
 flags=(-std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -I"$src/lib/include"
   -I"$work/generated")
-sources=("$src"/lib/src/can/*.cpp "$src"/lib/src/core/*.cpp)
+sources=("$src"/lib/src/can/*.cpp "$src"/lib/src/stream/*.cpp "$src"/lib/src/core/*.cpp)
 # URDF to chain needs these of model/; dynamics and the observer's stream code (two thirds of the
 # instrumented compile) it does not.
 model_sources=("$src"/lib/src/model/{model,inertial_corrections,profile,profile_text}.cpp "$src"/lib/src/stream/*.cpp
