@@ -23,21 +23,24 @@ std::optional<EventClass> parse_class(std::string_view text) {
 }
 
 PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight) {
+  // Called on every row of an undecided event (EventContact::decide): no allocation, the
+  // strengths are computed again in the second pass instead of kept.
   PulseShape shape;
   if (samples.empty()) return shape;
-  std::vector<double> strength(samples.size());
+  auto strength = [&](const ResidualSample& s) { return weight.cwiseProduct(s.r).norm(); };
   double peak = 0;
-  for (std::size_t i = 0; i < samples.size(); ++i) peak = std::max(peak, strength[i] = weight.cwiseProduct(samples[i].r).norm());
-  double t_last_half = NAN;
-  for (std::size_t i = 0; i < samples.size(); ++i) {
-    if (std::isnan(shape.rise) && strength[i] >= 0.9 * peak) shape.rise = std::max(0.0, samples[i].t - t_onset);
-    if (strength[i] >= 0.5 * peak) {
-      if (std::isnan(shape.t_first_half)) shape.t_first_half = samples[i].t;
-      t_last_half = samples[i].t;
+  for (const auto& s : samples) peak = std::max(peak, strength(s));
+  double t_last_half = NAN, last = 0;
+  for (const auto& s : samples) {
+    last = strength(s);
+    if (std::isnan(shape.rise) && last >= 0.9 * peak) shape.rise = std::max(0.0, s.t - t_onset);
+    if (last >= 0.5 * peak) {
+      if (std::isnan(shape.t_first_half)) shape.t_first_half = s.t;
+      t_last_half = s.t;
     }
   }
   shape.width = t_last_half - shape.t_first_half;
-  shape.over = strength.back() < 0.5 * peak;
+  shape.over = last < 0.5 * peak;
   return shape;
 }
 
