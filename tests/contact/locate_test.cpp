@@ -94,6 +94,42 @@ TEST(Locate, ProximalLinkIsNotExplainedByADistalOne) {
   EXPECT_NEAR(loc.point_sd, 0.5 * (segments[body].to - segments[body].from).norm() + 0.05, 1e-12);  // + radius
 }
 
+TEST(Locate, WholeContactKeepsTheProximalLinkThatTheNoiseAccepts) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const int body = 2;  // link 3
+  const double sigma = 0.05;
+  auto samples = push(model, body, 0.5 * (segments[body].from + segments[body].to), Eigen::Vector3d(0, 40, -60),
+                      sigma, 5);
+  // The model's error on the wrist while the forearm is pushed: 1.6 sigma, following the push
+  // (the wrist's share of the arm's reaction), on joints that the contact itself cannot load.
+  for (std::size_t k = 0; k < samples.size(); ++k)
+    for (Eigen::Index j = 3; j < 6; ++j)
+      samples[k].r[j] += (j % 2 ? -1.6 : 1.6) * sigma * std::sin(M_PI * static_cast<double>(k) / 40.0);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  EXPECT_EQ(locator.locate(samples, 2, 6, mc::LinkChoice::proximal_accepted).link, 3);
+  // A push on the surface of the wrist's last link with the same noise is still found there.
+  // (On its axis joint 6 would feel nothing, and link 5 would explain it as well.)
+  const Eigen::Vector3d axis = (segments[5].to - segments[5].from).normalized();
+  const auto wrist = push(model, 5, segments[5].from + 0.5 * (segments[5].to - segments[5].from) + 0.05 * axis.unitOrthogonal(),
+                          Eigen::Vector3d(20, -30, 40), sigma, 6);
+  EXPECT_EQ(locator.locate(wrist, 2, 6, mc::LinkChoice::proximal_accepted).link, 6);
+}
+
+TEST(Locate, ABodyThatFitsEveryJointExactlyIsOnlyTakenFromTheSignature) {
+  const mm::Model model = load("three_link");
+  ASSERT_EQ(model.nq, 3);
+  const auto segments = mc::link_segments(model);
+  const double sigma = 0.05;
+  auto samples = push(model, 1, 0.5 * (segments[1].from + segments[1].to), Eigen::Vector3d(0, 30, -50), sigma, 9);
+  for (std::size_t k = 0; k < samples.size(); ++k)  // joint 3: the model's error, 2 sigma
+    samples[k].r[2] += 2 * sigma * std::sin(M_PI * static_cast<double>(k) / 40.0);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(3, sigma));
+  // Link 3's force (3 components, 3 joints) would explain joint 3's error exactly.
+  EXPECT_EQ(locator.locate(samples, 2, 2, mc::LinkChoice::best_fit).link, 2);
+  EXPECT_EQ(locator.locate(samples, 2, 2, mc::LinkChoice::proximal_accepted).link, 2);
+}
+
 TEST(Locate, FewJointsGivePartialForce) {
   const mm::Model model = load("ur5");
   const auto segments = mc::link_segments(model);
@@ -111,6 +147,9 @@ TEST(Locate, InvalidInputs) {
   EXPECT_THROW(mc::Locator(model, Eigen::VectorXd::Constant(6, 0.0)), momentum::Error);
   mc::LocatorOptions options;
   options.points_per_link = 1;
+  EXPECT_THROW(mc::Locator(model, Eigen::VectorXd::Constant(6, 1.0), options), momentum::Error);
+  options = {};
+  options.proximal_alpha = 0.5;
   EXPECT_THROW(mc::Locator(model, Eigen::VectorXd::Constant(6, 1.0), options), momentum::Error);
   mc::Locator locator(model, Eigen::VectorXd::Constant(6, 1.0));
   EXPECT_EQ(locator.locate({}, 1).link, 0);

@@ -58,7 +58,8 @@ void EventContact::fill(detect::Event& event, bool whole) {
   // Candidates from the signature at detection on: joints that fire later may be the arm's
   // reaction (a stop, a back-off) seen through the model's errors, not the contact.
   if (event.kind == detect::EventKind::onset) first_link_ = event.link;
-  const Location loc = locator_.locate(samples, std::min(first_link_, event.link), event.link);
+  const Location loc = locator_.locate(samples, std::min(first_link_, event.link), event.link,
+                                       whole ? LinkChoice::proximal_accepted : LinkChoice::best_fit);
   auto& c = event.contact;
   if (loc.link > 0) {
     event.link = loc.link;

@@ -18,6 +18,23 @@ constexpr double kRankTolerance = 1e-6;
 
 int seen_unknowns(int body) { return std::min(3, body + 1); }
 
+// z with P(N(0, 1) > z) = p, for 0 < p < 0.5 (bisection on erfc).
+double upper_normal_quantile(double p) {
+  double lo = 0, hi = 40;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(mid / std::sqrt(2.0)) > p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// The (1 - alpha) quantile of a chi-square variable with `dof` degrees of freedom
+// (Wilson-Hilferty: within 1% for dof >= 2 at these levels).
+double chi_square_quantile(double dof, double alpha) {
+  const double h = 2 / (9 * dof);
+  return dof * std::pow(std::max(0.0, 1 - h + upper_normal_quantile(alpha) * std::sqrt(h)), 3);
+}
+
 }  // namespace
 
 std::vector<Segment> link_segments(const model::Model& model) {
@@ -41,6 +58,7 @@ bool LocatorOptions::IsValid(std::string* why) const {
   if (max_fit_samples < 1) return fail("the fit needs at least 1 sample");
   if (!(penalty_per_unknown > 0) || !std::isfinite(penalty_per_unknown))
     return fail("the penalty per unknown must be positive");
+  if (!(proximal_alpha > 0 && proximal_alpha < 0.5)) return fail("the proximal level must be in (0, 0.5)");
   return true;
 }
 
@@ -125,7 +143,8 @@ double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector
   return total;
 }
 
-Location Locator::locate(std::span<const ResidualSample> samples, int first_link, int signature_link) {
+Location Locator::locate(std::span<const ResidualSample> samples, int first_link, int signature_link,
+                         LinkChoice choice) {
   Location out;
   const int nq = model_->nq;
   first_link = std::max(first_link, 1);
@@ -170,11 +189,10 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   };
   std::vector<BodyFit> fits;
   for (int body = first_link - 1; body < nq; ++body) {
-    // Beyond first_link, only the signature's link and links whose point the joints determine:
-    // on a link that fewer than 4 joints see, any point explains the residuals as well, so the
-    // fit could only say that some joint beyond moved, which the calibrated thresholds judge
-    // better than the noise scale of the fit does.
-    if (body > first_link - 1 && body + 1 < 4 && body + 1 != signature_link) continue;
+    // Beyond first_link, only the signature's link and bodies whose fit the residuals can
+    // refute: one that sees every joint with as many force components as joints fits any
+    // residual exactly, so only the calibrated thresholds can judge it.
+    if (body > first_link - 1 && body + 1 != signature_link && seen_unknowns(body) >= nq) continue;
     BodyFit f;
     f.body = body;
     f.points = candidates(body);
@@ -199,6 +217,14 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     const double score = fits[i].cost + options_.penalty_per_unknown * scale * fits[i].unknowns;
     if (score < best_score) best_score = score, chosen = i;  // ties: the more proximal body
   }
+  if (choice == LinkChoice::proximal_accepted)
+    for (std::size_t i = 0; i < fits.size(); ++i) {
+      const double dof = static_cast<double>(fit.size()) * nq - fits[i].unknowns;
+      if (dof > 0 && fits[i].cost <= chi_square_quantile(dof, options_.proximal_alpha)) {
+        chosen = i;
+        break;
+      }
+    }
   const BodyFit& f = fits[chosen];
   const Segment& seg = segments_[static_cast<std::size_t>(f.body)];
   out.link = f.body + 1;

@@ -7,8 +7,9 @@
 //              known (a joint over its collision level, or the rise time already decided);
 //   end row:   fitted on the whole event (peak force, impulse), classified on its full rise.
 //
-// The link of both rows becomes the identified one: the body of the best point among the
-// fired signature's link and those beyond it.
+// The link of both rows becomes the identified one (Locator::locate): at onset the best fit
+// among the fired signature's link and those beyond it; at the end the most proximal of them
+// whose fit the calibrated noise accepts (LinkChoice::proximal_accepted).
 //
 // Between them the class is decided live, as early as the rule allows: at the first row over
 // a joint's collision level (a collision), when the pulse is over (below half its peak: its

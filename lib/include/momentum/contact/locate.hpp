@@ -66,7 +66,23 @@ struct LocatorOptions {
   // is lower by more than this per extra unknown (the fit's own noise scale; a likelihood-ratio
   // criterion: 2 is Akaike's), > 0.
   double penalty_per_unknown = 2.0;
+  // LinkChoice::proximal_accepted: the level at which a candidate body's weighted cost is
+  // refuted as more than the calibrated noise (chi-square on its degrees of freedom), (0, 0.5).
+  double proximal_alpha = 0.001;
   bool IsValid(std::string* why) const;
+};
+
+// How Locator::locate chooses the body among its candidates.
+enum class LinkChoice {
+  // The least weighted cost, penalised per unknown (LocatorOptions::penalty_per_unknown). For
+  // few samples (at detection), where no candidate can be refuted yet.
+  best_fit,
+  // The most proximal candidate whose cost the calibrated noise accepts at
+  // LocatorOptions::proximal_alpha, else best_fit's. For a whole contact: a contact puts no
+  // torque on the joints beyond its link, and a more distal body that fits better only by
+  // absorbing the model's small errors on those joints (which a whole contact's many samples
+  // let it do) is not evidence of a more distal contact.
+  proximal_accepted,
 };
 
 // What one fit found. `link` 0 when nothing could be fitted (no sample, or no candidate body).
@@ -97,8 +113,12 @@ class Locator {
   // Fits the samples of one contact (time order) with candidate bodies first_link (1-based; the
   // most distal joint that fired at detection, since no joint beyond the contact's body can feel
   // it), signature_link (the most distal joint that fired by now, when different) and, beyond
-  // first_link, those that 4 joints or more see (the others cannot be told apart by the fit).
-  Location locate(std::span<const ResidualSample> samples, int first_link, int signature_link = 0);
+  // first_link, every body whose fit keeps a degree of freedom (fewer force components than
+  // joints: a body whose force explains every joint's residual exactly cannot be refuted by
+  // the residuals, only by the calibrated thresholds, i.e. the signature). `choice`: how the
+  // body is chosen among the candidates (LinkChoice).
+  Location locate(std::span<const ResidualSample> samples, int first_link, int signature_link = 0,
+                  LinkChoice choice = LinkChoice::best_fit);
 
  private:
   struct Kinematics {
