@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "momentum/contact/classify.hpp"
 #include "momentum/contact/locate.hpp"
 #include "momentum/contact/window.hpp"
@@ -128,6 +130,61 @@ TEST(Locate, ABodyThatFitsEveryJointExactlyIsOnlyTakenFromTheSignature) {
   // Link 3's force (3 components, 3 joints) would explain joint 3's error exactly.
   EXPECT_EQ(locator.locate(samples, 2, 2, mc::LinkChoice::best_fit).link, 2);
   EXPECT_EQ(locator.locate(samples, 2, 2, mc::LinkChoice::proximal_accepted).link, 2);
+}
+
+TEST(Locate, SurfacePointsLieOnTheirShapes) {
+  using Kind = mm::CollisionShape::Kind;
+  mm::CollisionShape sphere, box, cylinder;
+  sphere.kind = Kind::sphere, sphere.size = {0.1, 0, 0};
+  box.kind = Kind::box, box.size = {0.1, 0.2, 0.4};
+  box.placement.translation = {1, 2, 3};
+  cylinder.kind = Kind::cylinder, cylinder.size = {0.05, 0.3, 0};
+  const double spacing = 0.02;
+  const auto on_sphere = mc::surface_points({sphere}, spacing);
+  EXPECT_NEAR(static_cast<double>(on_sphere.size()), 4 * M_PI * 0.01 / (spacing * spacing), 1.0);
+  for (const auto& p : on_sphere) EXPECT_NEAR(p.norm(), 0.1, 1e-12);
+  const auto on_box = mc::surface_points({box}, spacing);
+  EXPECT_EQ(on_box.size(), 2u * (10 * 20 + 20 * 5 + 5 * 10));
+  for (const auto& p : on_box) {
+    const Eigen::Vector3d d = (p - box.placement.translation).cwiseAbs() - 0.5 * box.size;
+    EXPECT_NEAR(d.maxCoeff(), 0.0, 1e-12) << p.transpose();  // on a face, inside the others
+  }
+  for (const auto& p : mc::surface_points({cylinder}, spacing)) {
+    const bool side = std::abs(std::hypot(p.x(), p.y()) - 0.05) < 1e-12 && std::abs(p.z()) <= 0.15;
+    const bool cap = std::abs(std::abs(p.z()) - 0.15) < 1e-12 && std::hypot(p.x(), p.y()) < 0.05;
+    EXPECT_TRUE(side || cap) << p.transpose();
+  }
+  EXPECT_NEAR(mc::surface_area({sphere, box, cylinder}),
+              4 * M_PI * 0.01 + 2 * (0.02 + 0.08 + 0.04) + 2 * M_PI * 0.05 * 0.3 + 2 * M_PI * 0.0025, 1e-12);
+}
+
+TEST(Locate, PointOnTheUrdfsCollisionShape) {
+  mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  // Link 6 as a cylinder of radius 0.08 m around its segment, wider than the default 0.05 m.
+  const Eigen::Vector3d along = segments[5].to - segments[5].from;
+  mm::CollisionShape cylinder;
+  cylinder.kind = mm::CollisionShape::Kind::cylinder;
+  cylinder.size = {0.08, along.norm(), 0};
+  cylinder.placement.rotation = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), along).toRotationMatrix();
+  cylinder.placement.translation = segments[5].from + 0.5 * along;
+  model.bodies[5].collision = {cylinder};
+  model.bodies[5].unread_meshes.clear();
+  const Eigen::Vector3d point = cylinder.placement.translation + cylinder.placement.rotation * Eigen::Vector3d(0.08, 0, 0.01);
+  const double sigma = 0.02;
+  const auto samples = push(model, 5, point, Eigen::Vector3d(-30, 20, 25), sigma, 4);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  const mc::Location loc = locator.locate(samples, 4, 6, mc::LinkChoice::proximal_accepted);
+  EXPECT_EQ(loc.link, 6);
+  const Eigen::Vector3d local = cylinder.placement.rotation.transpose() * (loc.point - cylinder.placement.translation);
+  EXPECT_NEAR(std::hypot(local.x(), local.y()), 0.08, 1e-9);  // on the shape, not the default cylinder
+  EXPECT_LT((loc.point - point).norm(), 3 * loc.point_sd) << loc.point.transpose();
+  // With the URDF's mesh unread, the segment's cylinder: the point's distance is off by 0.03 m.
+  model.bodies[5].unread_meshes = {"package://robot/wrist3.stl"};
+  mc::Locator fallback(model, Eigen::VectorXd::Constant(6, sigma));
+  const mc::Location guess = fallback.locate(samples, 4, 6, mc::LinkChoice::proximal_accepted);
+  const Eigen::Vector3d guessed = cylinder.placement.rotation.transpose() * (guess.point - cylinder.placement.translation);
+  EXPECT_LE(std::hypot(guessed.x(), guessed.y()), 0.05 + 1e-9);
 }
 
 TEST(Locate, FewJointsGivePartialForce) {

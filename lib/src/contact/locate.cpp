@@ -48,6 +48,119 @@ std::vector<Segment> link_segments(const model::Model& model) {
   return segments;
 }
 
+namespace {
+
+double triangle_area(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  return 0.5 * (b - a).cross(c - a).norm();
+}
+
+double shape_area(const model::CollisionShape& shape) {
+  using Kind = model::CollisionShape::Kind;
+  const Eigen::Vector3d& d = shape.size;
+  switch (shape.kind) {
+    case Kind::sphere: return 4 * M_PI * d.x() * d.x();
+    case Kind::box: return 2 * (d.x() * d.y() + d.y() * d.z() + d.x() * d.z());
+    case Kind::cylinder: return 2 * M_PI * d.x() * d.y() + 2 * M_PI * d.x() * d.x();
+    case Kind::mesh: {
+      double area = 0;
+      for (std::size_t t = 0; t + 2 < shape.triangles.size(); t += 3)
+        area += triangle_area(shape.triangles[t], shape.triangles[t + 1], shape.triangles[t + 2]);
+      return area;
+    }
+  }
+  return 0;
+}
+
+int count_over(double length, double spacing) { return std::max(1, static_cast<int>(std::lround(length / spacing))); }
+
+// Points of one shape, in its own frame.
+void shape_points(const model::CollisionShape& shape, double spacing, std::vector<Eigen::Vector3d>& out) {
+  using Kind = model::CollisionShape::Kind;
+  const Eigen::Vector3d& d = shape.size;
+  switch (shape.kind) {
+    case Kind::sphere: {
+      const int n = count_over(shape_area(shape), spacing * spacing);
+      const double golden = M_PI * (3 - std::sqrt(5.0));
+      for (int i = 0; i < n; ++i) {
+        const double z = 1 - (2 * i + 1.0) / n, rho = std::sqrt(1 - z * z);
+        out.emplace_back(d.x() * rho * std::cos(golden * i), d.x() * rho * std::sin(golden * i), d.x() * z);
+      }
+      return;
+    }
+    case Kind::box:
+      for (int axis = 0; axis < 3; ++axis) {
+        const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+        const int nu = count_over(d[u], spacing), nv = count_over(d[v], spacing);
+        for (const double side : {-0.5, 0.5})
+          for (int i = 0; i < nu; ++i)
+            for (int k = 0; k < nv; ++k) {
+              Eigen::Vector3d p;
+              p[axis] = side * d[axis];
+              p[u] = ((i + 0.5) / nu - 0.5) * d[u];
+              p[v] = ((k + 0.5) / nv - 0.5) * d[v];
+              out.push_back(p);
+            }
+      }
+      return;
+    case Kind::cylinder: {
+      const double r = d.x(), length = d.y();
+      const int around = std::max(4, count_over(2 * M_PI * r, spacing)), along = count_over(length, spacing);
+      for (int a = 0; a < along; ++a)
+        for (int k = 0; k < around; ++k) {
+          const double angle = 2 * M_PI * k / around;
+          out.emplace_back(r * std::cos(angle), r * std::sin(angle), ((a + 0.5) / along - 0.5) * length);
+        }
+      const int rings = count_over(r, spacing);
+      for (const double side : {-0.5, 0.5})
+        for (int ring = 0; ring < rings; ++ring) {
+          const double rho = r * (ring + 0.5) / rings;
+          const int n = std::max(1, count_over(2 * M_PI * rho, spacing));
+          for (int k = 0; k < n; ++k)
+            out.emplace_back(rho * std::cos(2 * M_PI * k / n), rho * std::sin(2 * M_PI * k / n), side * length);
+        }
+      return;
+    }
+    case Kind::mesh: {
+      // Systematic sampling by area: the triangle under each of n evenly spaced marks of the
+      // cumulative area gives its centroid.
+      const double area = shape_area(shape);
+      if (!(area > 0)) return;
+      const int n = count_over(area, spacing * spacing);
+      double cumulative = 0;
+      int next = 0;
+      for (std::size_t t = 0; t + 2 < shape.triangles.size() && next < n; t += 3) {
+        const auto &a = shape.triangles[t], &b = shape.triangles[t + 1], &c = shape.triangles[t + 2];
+        cumulative += triangle_area(a, b, c);
+        bool taken = false;
+        while (next < n && (next + 0.5) * area / n <= cumulative) {
+          if (!taken) out.push_back((a + b + c) / 3);
+          taken = true;
+          ++next;
+        }
+      }
+      return;
+    }
+  }
+}
+
+}  // namespace
+
+double surface_area(const std::vector<model::CollisionShape>& shapes) {
+  double area = 0;
+  for (const auto& shape : shapes) area += shape_area(shape);
+  return area;
+}
+
+std::vector<Eigen::Vector3d> surface_points(const std::vector<model::CollisionShape>& shapes, double spacing) {
+  std::vector<Eigen::Vector3d> points, local;
+  for (const auto& shape : shapes) {
+    local.clear();
+    shape_points(shape, spacing, local);
+    for (const auto& p : local) points.push_back(shape.placement.rotation * p + shape.placement.translation);
+  }
+  return points;
+}
+
 bool LocatorOptions::IsValid(std::string* why) const {
   auto fail = [why](const char* text) {
     if (why) *why = text;
@@ -74,6 +187,7 @@ Locator::Locator(const model::Model& model, Eigen::VectorXd sigma, LocatorOption
       throw Error("contact locator: the noise scale of joint " + std::to_string(j + 1) + " must be positive");
   weight_ = sigma.cwiseInverse();
   JT_.resize(model.nq, 3);
+  for (int body = 0; body < model.nq; ++body) candidates_.push_back(candidates(body));
 }
 
 void Locator::jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point,
@@ -110,26 +224,35 @@ Eigen::Vector3d Locator::solve_force(const Kinematics& k, const ResidualSample& 
   return force;
 }
 
-std::vector<Eigen::Vector3d> Locator::candidates(int body) const {
-  const Segment& seg = segments_[static_cast<std::size_t>(body)];
-  const Eigen::Vector3d along = seg.to - seg.from;
-  // Two directions across the segment (across the joint axis for a segment of no length).
-  const Eigen::Vector3d axis = along.norm() > 1e-9 ? Eigen::Vector3d(along.normalized())
-                                                   : model_->joints[static_cast<std::size_t>(body)].axis;
-  const Eigen::Vector3d across = axis.unitOrthogonal(), across2 = axis.cross(across);
-  std::vector<Eigen::Vector3d> points;
+Locator::Candidates Locator::candidates(int body) const {
+  const auto b = static_cast<std::size_t>(body);
+  Candidates c;
   const int axial = options_.points_per_link;
   constexpr int kAround = 8;
+  // On the URDF's collision shapes, when all of them could be read (a part of the body's
+  // surface would be left out otherwise): as many points as the segment gets, evenly spread.
+  const auto& shapes = model_->bodies[b].collision;
+  if (const double area = surface_area(shapes); area > 0 && model_->bodies[b].unread_meshes.empty()) {
+    c.spacing = std::sqrt(area / (axial * (kAround + 1)));
+    c.points = surface_points(shapes, c.spacing);
+    if (!c.points.empty()) return c;
+  }
+  const Segment& seg = segments_[b];
+  const Eigen::Vector3d along = seg.to - seg.from;
+  // Two directions across the segment (across the joint axis for a segment of no length).
+  const Eigen::Vector3d axis = along.norm() > 1e-9 ? Eigen::Vector3d(along.normalized()) : model_->joints[b].axis;
+  const Eigen::Vector3d across = axis.unitOrthogonal(), across2 = axis.cross(across);
   for (int p = 0; p < axial; ++p) {
     const Eigen::Vector3d centre = seg.from + static_cast<double>(p) / (axial - 1) * along;
-    points.push_back(centre);
+    c.points.push_back(centre);
     if (options_.link_radius > 0)
       for (int a = 0; a < kAround; ++a) {
         const double angle = 2 * M_PI * a / kAround;
-        points.push_back(centre + options_.link_radius * (std::cos(angle) * across + std::sin(angle) * across2));
+        c.points.push_back(centre + options_.link_radius * (std::cos(angle) * across + std::sin(angle) * across2));
       }
   }
-  return points;
+  c.spacing = std::max(along.norm() / (axial - 1), options_.link_radius * 2 * std::sin(M_PI / 8));
+  return c;
 }
 
 double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
@@ -195,7 +318,7 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     if (body > first_link - 1 && body + 1 != signature_link && seen_unknowns(body) >= nq) continue;
     BodyFit f;
     f.body = body;
-    f.points = candidates(body);
+    f.points = candidates_[static_cast<std::size_t>(body)].points;
     f.costs.resize(f.points.size());
     for (std::size_t p = 0; p < f.points.size(); ++p) {
       f.costs[p] = point_cost(kin, fit, body, f.points[p]);
@@ -236,9 +359,7 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     out.point = f.points[f.best];
     // The points whose cost is within one (scaled) unit of the best: their largest distance
     // from it is a 68% radius; at least half the spacing of the candidates.
-    const double spacing = std::max((seg.to - seg.from).norm() / (options_.points_per_link - 1),
-                                    options_.link_radius * 2 * std::sin(M_PI / 8));
-    double spread = 0.5 * spacing;
+    double spread = 0.5 * candidates_[static_cast<std::size_t>(f.body)].spacing;
     for (std::size_t p = 0; p < f.points.size(); ++p)
       if (f.costs[p] <= f.cost + scale) spread = std::max(spread, (f.points[p] - out.point).norm());
     out.point_sd = spread;

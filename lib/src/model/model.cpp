@@ -17,6 +17,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "momentum/model/collision.hpp"
 #include "momentum/model/inertial_corrections.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -187,6 +188,57 @@ struct Builder {
              frame.rotation * inertia * frame.rotation.transpose());
   }
 
+  // Adds `link`'s collision shapes, placed by `link_in_body`, to `body`. A mesh whose file
+  // cannot be found or read is named in body.unread_meshes: identification then falls back to
+  // the body's segment, which costs precision, not the model.
+  void add_collision(const urdf::Link& link, const Placement& link_in_body, Body& body) const {
+    for (const auto& element : link.collision_array) {
+      if (!element || !element->geometry) continue;
+      CollisionShape shape;
+      shape.placement = compose(link_in_body, to_placement(element->origin));
+      const urdf::Geometry& geometry = *element->geometry;
+      switch (geometry.type) {
+        case urdf::Geometry::SPHERE:
+          shape.kind = CollisionShape::Kind::sphere;
+          shape.size.x() = static_cast<const urdf::Sphere&>(geometry).radius;
+          break;
+        case urdf::Geometry::BOX: {
+          const auto& dim = static_cast<const urdf::Box&>(geometry).dim;
+          shape.kind = CollisionShape::Kind::box;
+          shape.size = Eigen::Vector3d(dim.x, dim.y, dim.z);
+          break;
+        }
+        case urdf::Geometry::CYLINDER: {
+          const auto& cylinder = static_cast<const urdf::Cylinder&>(geometry);
+          shape.kind = CollisionShape::Kind::cylinder;
+          shape.size = Eigen::Vector3d(cylinder.radius, cylinder.length, 0);
+          break;
+        }
+        case urdf::Geometry::MESH: {
+          const auto& mesh = static_cast<const urdf::Mesh&>(geometry);
+          shape.kind = CollisionShape::Kind::mesh;
+          const auto file = resolve_mesh(mesh.filename, std::filesystem::path(where));
+          try {
+            if (!file) throw Error("not found");
+            shape.triangles = read_stl(*file);
+          } catch (const Error&) {
+            body.unread_meshes.push_back(mesh.filename);
+            continue;
+          }
+          const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
+          for (auto& v : shape.triangles) v = v.cwiseProduct(scale);
+          break;
+        }
+        default:
+          continue;
+      }
+      if (!shape.size.allFinite() || (shape.kind != CollisionShape::Kind::mesh && !(shape.size.x() > 0))) {
+        fail("link " + in_quotes(link.name) + ": a collision shape of no size");
+      }
+      body.collision.push_back(std::move(shape));
+    }
+  }
+
   // Adds `link` and everything below it except the child on the chain (`next_on_chain`, may
   // be null) to `body`. Moving joints off the chain are locked at q = 0.
   void add_subtree(const urdf::Link& link, const Placement& link_in_body,
@@ -194,6 +246,7 @@ struct Builder {
                    std::vector<std::string>& locked, int body_index) const {
     link_frames[link.name] = {body_index, link_in_body};
     add_inertial(link, link_in_body, body);
+    if (named) add_collision(link, link_in_body, *named);
     for (const auto& child : link.child_links) {
       if (child.get() == next_on_chain) continue;
       const urdf::Joint& joint = *child->parent_joint;

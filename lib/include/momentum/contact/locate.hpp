@@ -42,6 +42,15 @@ struct Segment {
 // One segment per body of `model`, in body order.
 std::vector<Segment> link_segments(const model::Model& model);
 
+// Points about `spacing` apart (m) on the surfaces of `shapes` (a body's collision shapes), in
+// the body frame: grids on boxes' faces and cylinders' sides and caps, a Fibonacci lattice on
+// spheres, meshes sampled in proportion to their triangles' areas (each point a triangle's
+// centroid). `spacing` > 0.
+std::vector<Eigen::Vector3d> surface_points(const std::vector<model::CollisionShape>& shapes, double spacing);
+
+// The surface area of `shapes`, m^2 (meshes: the sum of their triangles' areas).
+double surface_area(const std::vector<model::CollisionShape>& shapes);
+
 // One residual sample of a contact: time (s), joint positions q (nq, rad or m), the residual
 // minus its level before the contact (nq, Nm or N), and optionally the weight of each joint's
 // residual on this row (nq, 1/Nm: a joint near standstill, where friction flips, is trusted
@@ -125,8 +134,13 @@ class Locator {
     std::vector<Eigen::Matrix3d> rotation;
     std::vector<Eigen::Vector3d> position, axis;
   };
-  // Candidate points of body `body`, its frame.
-  std::vector<Eigen::Vector3d> candidates(int body) const;
+  // Candidate points of body `body`, its frame, and their spacing (m): on its collision shapes
+  // where the URDF gives some and every one could be read, else on the segment's cylinder.
+  struct Candidates {
+    std::vector<Eigen::Vector3d> points;
+    double spacing = 0;
+  };
+  Candidates candidates(int body) const;
   void jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point, const Eigen::VectorXd& weight,
                           Eigen::MatrixXd& JT) const;
   const Eigen::VectorXd& weight_of(const ResidualSample& s) const { return s.weight.size() ? s.weight : weight_; }
@@ -141,6 +155,7 @@ class Locator {
   Eigen::VectorXd weight_;  // 1 / sigma
   LocatorOptions options_;
   std::vector<Segment> segments_;
+  std::vector<Candidates> candidates_;  // per body, made once
   Eigen::MatrixXd JT_;
 };
 

@@ -44,6 +44,19 @@ struct Joint {
   Placement placement;
 };
 
+// One <collision> element of a link, in the frame of the body it was merged into. Used to place
+// candidate contact points (contact/locate); the dynamics ignore it.
+struct CollisionShape {
+  enum class Kind { sphere, box, cylinder, mesh };
+  Kind kind = Kind::sphere;
+  Placement placement;  // the shape's frame in the body frame
+  // sphere: (radius, 0, 0); box: its full extents along x, y, z; cylinder: (radius, length, 0),
+  // its axis along z and centred on the origin; mesh: unused. m.
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();
+  // mesh: 3 vertices per triangle, in the shape's frame, the URDF's scale applied, m.
+  std::vector<Eigen::Vector3d> triangles;
+};
+
 // A moving body: the link a joint moves plus every link merged into it. Inertial parameters
 // are expressed in the body frame (= the frame of the joint that moves it).
 struct Body {
@@ -52,6 +65,10 @@ struct Body {
   double mass = 0.0;                     // kg, > 0
   Eigen::Vector3d com = Eigen::Vector3d::Zero();          // centre of mass, m
   Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();      // rotational inertia about com, kg m^2
+  std::vector<CollisionShape> collision;  // its links' <collision> shapes that could be read
+  // Mesh files named by its links' <collision> elements that could not be read (a package://
+  // outside ROS_PACKAGE_PATH, a missing file, not an STL), as written in the URDF.
+  std::vector<std::string> unread_meshes;
 };
 
 struct Model {

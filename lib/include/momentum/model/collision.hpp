@@ -1,0 +1,24 @@
+#pragma once
+// The URDF's collision meshes: where a mesh's file is, and its triangles. The shapes themselves
+// are in Body::collision (model.hpp), read when the model is built.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace momentum::model {
+
+// The file a URDF mesh name refers to: package://PKG/REST under a directory of ROS_PACKAGE_PATH
+// (colon-separated) that holds PKG, or PKG/REST itself; file:///abs; a relative name relative
+// to the URDF's directory. nullopt when no such file exists.
+std::optional<std::filesystem::path> resolve_mesh(const std::string& name, const std::filesystem::path& urdf);
+
+// The triangles of an STL file, binary or ASCII: 3 vertices per triangle, in the file's units.
+// Throws momentum::Error ("file: message") when the file cannot be read, is truncated, holds a
+// non-finite vertex or no triangle.
+std::vector<Eigen::Vector3d> read_stl(const std::filesystem::path& path);
+
+}  // namespace momentum::model
