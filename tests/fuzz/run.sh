@@ -33,7 +33,7 @@ flags=(-std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recov
 sources=("$src"/lib/src/can/*.cpp "$src"/lib/src/stream/*.cpp "$src"/lib/src/core/*.cpp)
 # URDF to chain needs these of model/; dynamics and the observer's stream code (two thirds of the
 # instrumented compile) it does not.
-model_sources=("$src"/lib/src/model/{model,inertial_corrections,profile,profile_text}.cpp "$src"/lib/src/stream/*.cpp
+model_sources=("$src"/lib/src/model/{model,collision,inertial_corrections,profile,profile_text}.cpp "$src"/lib/src/stream/*.cpp
   "$src"/lib/src/core/*.cpp)
 model_flags=(-isystem /usr/include/eigen3)
 model_libs=(-lurdfdom_model -lconsole_bridge)
