@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -25,6 +26,12 @@ std::size_t format_double(double value, char* out) {
 std::string exact(double value) {
   char buffer[40];
   return std::string(buffer, format_double(value, buffer));
+}
+
+std::string short_number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", value == 0.0 ? 0.0 : value);
+  return text;
 }
 
 std::optional<double> parse_double(std::string_view field) {
