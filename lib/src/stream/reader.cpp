@@ -201,13 +201,7 @@ class CsvReader final : public Reader {
         if (line_number_ == 0) throw Error(name() + ": empty input");
         throw Error(name() + ": no header line (only comments)");
       }
-      std::size_t start = 0;
-      for (;;) {
-        std::size_t comma = line.find(',', start);
-        columns_.emplace_back(trim(line.substr(start, comma - start)));
-        if (comma == std::string_view::npos) break;
-        start = comma + 1;
-      }
+      for (const std::string& column : core::split(line)) columns_.emplace_back(trim(column));
       check_columns(columns_, located(name(), line_number_, "header"));
       for (std::size_t i = 0; i < columns_.size(); ++i) keep_.push_back(i);
       fields_ = columns_.size();
