@@ -78,6 +78,24 @@ bool fraction_ns(const char*& p, const char* end, std::int64_t& ns) {
   return true;
 }
 
+// The end of a timestamp at p: an optional ".FRACTION" (`frac`, nanoseconds) and the closing
+// ')'; p is then past it.
+bool stamp_end(const char*& p, const char* end, std::int64_t& frac, const char*& error) {
+  if (p < end && *p == '.') {
+    ++p;
+    if (!fraction_ns(p, end, frac)) {
+      error = "bad timestamp";
+      return false;
+    }
+  }
+  if (p >= end || *p != ')') {
+    error = "bad timestamp";
+    return false;
+  }
+  ++p;
+  return true;
+}
+
 // Parses "(...)" at p: "(SECONDS[.FRACTION])" or "(YYYY-MM-DD HH:MM:SS.FRACTION)". On success p
 // is past ')', `integer_digits` is the number of digits before the point (0 for a date).
 bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer_digits,
@@ -111,18 +129,8 @@ bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer
       return false;
     }
     std::int64_t frac = 0;
-    if (q < end && *q == '.') {
-      ++q;
-      if (!fraction_ns(q, end, frac)) {
-        error = "bad timestamp";
-        return false;
-      }
-    }
-    if (q >= end || *q != ')') {
-      error = "bad timestamp";
-      return false;
-    }
-    p = q + 1;
+    if (!stamp_end(q, end, frac, error)) return false;
+    p = q;
     const std::int64_t days = days_from_civil(year, month, day);
     ns = ((days * 24 + hour) * 60 + minute) * 60 + second;
     ns = ns * 1000000000 + frac;
@@ -134,18 +142,7 @@ bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer
     return false;
   }
   std::int64_t frac = 0;
-  if (p < end && *p == '.') {
-    ++p;
-    if (!fraction_ns(p, end, frac)) {
-      error = "bad timestamp";
-      return false;
-    }
-  }
-  if (p >= end || *p != ')') {
-    error = "bad timestamp";
-    return false;
-  }
-  ++p;
+  if (!stamp_end(p, end, frac, error)) return false;
   ns = seconds * 1000000000 + frac;
   return true;
 }
