@@ -2,7 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
@@ -48,4 +51,45 @@ TEST(Number, ExactIsTheShortestRoundTrip) {
   EXPECT_FALSE(parse_double(""));
   EXPECT_EQ(*parse_double(" +2 "), 2.0);
   EXPECT_TRUE(std::isinf(*parse_double("1e999")));
+}
+
+TEST(Number, ShortAndSignificantAreWhatPrintfWrites) {
+  EXPECT_EQ(short_number(0.1), "0.1");
+  EXPECT_EQ(short_number(123456.7), "123457");
+  EXPECT_EQ(short_number(1e-7), "1e-07");
+  EXPECT_EQ(short_number(-0.0), "0");  // a message never shows -0
+  EXPECT_EQ(short_number(std::numeric_limits<double>::infinity()), "inf");
+  EXPECT_EQ(significant(1.0 / 3.0, 3), "0.333");
+  EXPECT_EQ(significant(1700000000.123456789, 9), "1.7e+09");
+  EXPECT_EQ(significant(170000.123456789, 9), "170000.123");
+  EXPECT_EQ(significant(12.5, 9), "12.5");
+  EXPECT_EQ(significant(-0.0, 6), "-0");  // as printf: reports that want "0" use short_number
+  EXPECT_EQ(significant(1e6, 3), "1e+06");
+}
+
+TEST(Number, NanosecondsAsCandumpWritesThem) {
+  char out[40];
+  auto text = [&](std::int64_t ns, int digits) { return std::string(out, format_nanoseconds(ns, digits, out)); };
+  // can-utils: "(%010lu.%06lu)" for whole microseconds; nine decimals only when needed.
+  EXPECT_EQ(text(1700000000000100000, 10), "1700000000.000100");
+  EXPECT_EQ(text(12000000, 10), "0000000000.012000");
+  EXPECT_EQ(text(1, 0), "0.000000001");
+  EXPECT_EQ(text(1500000001, 0), "1.500000001");
+  EXPECT_EQ(text(-1500000000, 0), "-1.500000");
+  EXPECT_EQ(text(std::numeric_limits<std::int64_t>::min(), 0), "-9223372036.854775808");
+}
+
+TEST(Text, WordsSplitAtBlanksWithoutAllocating) {
+  Words words(" \t12.5 can0  123#11\t");
+  EXPECT_EQ(words.next(), "12.5");
+  const Words after_time = words;  // a cursor: a copy comes back to here
+  EXPECT_EQ(words.next(), "can0");
+  EXPECT_EQ(words.next(), "123#11");
+  EXPECT_EQ(words.next(), "");
+  EXPECT_EQ(words.next(), "");
+  Words again = after_time;
+  EXPECT_EQ(again.next(), "can0");
+  EXPECT_EQ(again.rest(), "  123#11\t");
+  EXPECT_EQ(Words("").next(), "");
+  EXPECT_EQ(Words(" \t ").next(), "");
 }

@@ -3,6 +3,8 @@
 #include <array>
 #include <cstring>
 
+#include "momentum/core/text.hpp"
+
 namespace momentum::can {
 
 namespace {
@@ -16,13 +18,9 @@ struct Tokens {
 };
 
 void split(std::string_view line, Tokens& tokens) {
-  std::size_t k = 0;
-  while (k < line.size() && tokens.count < kMaxTokens) {
-    while (k < line.size() && (line[k] == ' ' || line[k] == '\t')) ++k;
-    const std::size_t start = k;
-    while (k < line.size() && line[k] != ' ' && line[k] != '\t') ++k;
-    if (k > start) tokens.items[tokens.count++] = line.substr(start, k - start);
-  }
+  core::Words words(line);
+  for (std::string_view word = words.next(); !word.empty() && tokens.count < kMaxTokens; word = words.next())
+    tokens.items[tokens.count++] = word;
 }
 
 int digit_value(char c, bool decimal) {

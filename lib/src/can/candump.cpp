@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "momentum/can/asc.hpp"
+#include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -77,6 +78,24 @@ bool fraction_ns(const char*& p, const char* end, std::int64_t& ns) {
   return true;
 }
 
+// The end of a timestamp at p: an optional ".FRACTION" (`frac`, nanoseconds) and the closing
+// ')'; p is then past it.
+bool stamp_end(const char*& p, const char* end, std::int64_t& frac, const char*& error) {
+  if (p < end && *p == '.') {
+    ++p;
+    if (!fraction_ns(p, end, frac)) {
+      error = "bad timestamp";
+      return false;
+    }
+  }
+  if (p >= end || *p != ')') {
+    error = "bad timestamp";
+    return false;
+  }
+  ++p;
+  return true;
+}
+
 // Parses "(...)" at p: "(SECONDS[.FRACTION])" or "(YYYY-MM-DD HH:MM:SS.FRACTION)". On success p
 // is past ')', `integer_digits` is the number of digits before the point (0 for a date).
 bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer_digits,
@@ -110,18 +129,8 @@ bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer
       return false;
     }
     std::int64_t frac = 0;
-    if (q < end && *q == '.') {
-      ++q;
-      if (!fraction_ns(q, end, frac)) {
-        error = "bad timestamp";
-        return false;
-      }
-    }
-    if (q >= end || *q != ')') {
-      error = "bad timestamp";
-      return false;
-    }
-    p = q + 1;
+    if (!stamp_end(q, end, frac, error)) return false;
+    p = q;
     const std::int64_t days = days_from_civil(year, month, day);
     ns = ((days * 24 + hour) * 60 + minute) * 60 + second;
     ns = ns * 1000000000 + frac;
@@ -133,18 +142,7 @@ bool parse_stamp(const char*& p, const char* end, std::int64_t& ns, int& integer
     return false;
   }
   std::int64_t frac = 0;
-  if (p < end && *p == '.') {
-    ++p;
-    if (!fraction_ns(p, end, frac)) {
-      error = "bad timestamp";
-      return false;
-    }
-  }
-  if (p >= end || *p != ')') {
-    error = "bad timestamp";
-    return false;
-  }
-  ++p;
+  if (!stamp_end(p, end, frac, error)) return false;
   ns = seconds * 1000000000 + frac;
   return true;
 }
@@ -278,19 +276,8 @@ bool parse_log_frame(const char* s, std::size_t n, Frame& frame, const char*& er
 }
 
 // A whitespace-separated token scanner over one line.
-struct Tokens {
-  const char* p;
-  const char* end;
-  std::string_view next() {
-    while (p < end && is_space(*p)) ++p;
-    const char* start = p;
-    while (p < end && !is_space(*p)) ++p;
-    return {start, static_cast<std::size_t>(p - start)};
-  }
-};
-
 // Default format after the interface: sprint_long_canframe(), with -x fields before it.
-bool parse_long_frame(Tokens& tokens, Frame& frame, const char*& error) {
+bool parse_long_frame(core::Words& tokens, Frame& frame, const char*& error) {
   std::string_view tok = tokens.next();
   if (tok == "RX" || tok == "TX") {
     frame.direction = tok == "RX" ? Direction::rx : Direction::tx;
@@ -340,7 +327,7 @@ bool parse_long_frame(Tokens& tokens, Frame& frame, const char*& error) {
   frame.len = static_cast<std::uint8_t>(len);
   if (!frame.fd && !frame.error) {
     // " remote request" replaces the data of an RTR frame.
-    const char* save = tokens.p;
+    const core::Words save = tokens;
     if (tokens.next() == "remote") {
       if (tokens.next() == "request") {
         frame.rtr = true;
@@ -349,7 +336,7 @@ bool parse_long_frame(Tokens& tokens, Frame& frame, const char*& error) {
       error = "bad remote request";
       return false;
     }
-    tokens.p = save;
+    tokens = save;
   }
   // Data: hex pairs (" 11 22"), binary octets with -i (" 00010001"), and with -S the bytes in
   // reverse order joined by '`' (" 22`11").
@@ -451,11 +438,11 @@ LineKind parse_candump_line(std::string_view line, Frame& frame, ParsedLine& inf
     // The log format has one space after ')', the default format two; either way a token
     // follows.
   }
-  Tokens tokens{p, end};
+  core::Words tokens(std::string_view(p, static_cast<std::size_t>(end - p)));
   const std::string_view iface = tokens.next();
   if (iface.empty()) return bad("missing interface name");
   info.interface = iface;
-  const char* after_iface = tokens.p;
+  const core::Words after_iface = tokens;
   const std::string_view first = tokens.next();
   if (first.empty()) return bad(integer_digits < 0 ? "not candump text" : "missing frame");
 
@@ -479,7 +466,7 @@ LineKind parse_candump_line(std::string_view line, Frame& frame, ParsedLine& inf
     return info.kind = LineKind::frame;
   }
 
-  tokens.p = after_iface;
+  tokens = after_iface;
   if (!parse_long_frame(tokens, frame, error)) {
     // A line with neither a timestamp nor a hex id where the default format has one is not a
     // damaged frame but something else altogether.
@@ -724,32 +711,7 @@ std::size_t format_log_line(const Frame& frame, std::string_view interface, char
   static constexpr char kDigits[] = "0123456789ABCDEF";
   char* o = out;
   *o++ = '(';
-  std::int64_t ns = frame.time_ns;
-  if (ns < 0) {
-    *o++ = '-';
-    ns = -ns;
-  }
-  std::int64_t seconds = ns / 1000000000;
-  std::int64_t frac = ns % 1000000000;
-  char digits[24];
-  int n = 0;
-  do {
-    digits[n++] = static_cast<char>('0' + seconds % 10);
-    seconds /= 10;
-  } while (seconds > 0);
-  for (int pad = n; pad < 10; ++pad) *o++ = '0';
-  while (n > 0) *o++ = digits[--n];
-  *o++ = '.';
-  int frac_digits = 9;
-  if (frac % 1000 == 0) {
-    frac /= 1000;
-    frac_digits = 6;
-  }
-  for (int i = frac_digits - 1; i >= 0; --i) {
-    o[i] = static_cast<char>('0' + frac % 10);
-    frac /= 10;
-  }
-  o += frac_digits;
+  o += core::format_nanoseconds(frame.time_ns, 10, o);  // can-utils: "(%010lu.%06lu)"
   *o++ = ')';
   *o++ = ' ';
   if (interface.size() > 32) interface = interface.substr(0, 32);

@@ -1,10 +1,12 @@
 #include "momentum/can/codec.hpp"
 
 #include <bit>
-#include <charconv>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <vector>
+
+#include "momentum/core/number.hpp"
 
 namespace momentum::can {
 
@@ -34,13 +36,14 @@ std::size_t format_int128(int128 v, char* out) {
   return len;
 }
 
+// core::format_double, but a NaN decoded from a frame is "nan" whatever its sign bit: a float
+// signal's NaN carries no sign worth keeping.
 std::size_t format_shortest(double v, char* out) {
   if (std::isnan(v)) {
     std::memcpy(out, "nan", 3);
     return 3;
   }
-  auto r = std::to_chars(out, out + 47, v);
-  return static_cast<std::size_t>(r.ptr - out);
+  return core::format_double(v, out);
 }
 
 // Whether signal i is selected by its multiplexer chain; `absent` (may be null) marks signals

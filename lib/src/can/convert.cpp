@@ -1,10 +1,11 @@
 #include "momentum/can/convert.hpp"
 
-#include <cinttypes>
 #include <cmath>
-#include <cstdio>
+#include <initializer_list>
 #include <map>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 #include "momentum/can/dbc.hpp"
 #include "momentum/can/socketcan.hpp"
@@ -130,40 +131,46 @@ bool ConvertOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// One line of counters: "<prefix>label N, label N, ...\n".
+std::string counter_line(std::string_view prefix,
+                         std::initializer_list<std::pair<const char*, std::uint64_t>> counters) {
+  std::string line(prefix);
+  const char* separator = "";
+  for (const auto& [label, count] : counters) {
+    line += separator;
+    line += label;
+    line += ' ';
+    line += std::to_string(count);
+    separator = ", ";
+  }
+  return line + "\n";
+}
+
+}  // namespace
+
 std::string format_summary(const ConvertSummary& summary, std::string_view prefix) {
   const SourceStats& f = summary.source;
-  const std::string p(prefix);
-  std::string out;
-  char line[512];
   if (summary.mode == ConvertSummary::Mode::cycles) {
     const CycleStats& s = summary.cycles;
-    std::snprintf(line, sizeof line,
-                  "%sframes read %" PRIu64 ", decoded %" PRIu64 ", unknown ids %" PRIu64 ", sync %" PRIu64
-                  ", error frames %" PRIu64 ", remote %" PRIu64 ", short %" PRIu64 "\n",
-                  p.c_str(), f.frames, s.decoded, s.unknown_ids, s.sync_frames, s.error_frames, s.remote_frames,
-                  s.short_frames);
-    out += line;
-    std::snprintf(line, sizeof line,
-                  "%sbad lines %" PRIu64 ", lost frames %" PRIu64 ", bad records %" PRIu64
-                  ", frames before the first cycle %" PRIu64 ", filtered (--bus) %" PRIu64 "\n",
-                  p.c_str(), f.bad_lines, f.lost_frames, f.bad_records, s.before_first_cycle, f.filtered);
-    out += line;
-    std::snprintf(line, sizeof line,
-                  "%scycles complete %" PRIu64 ", incomplete %" PRIu64 ", values missing %" PRIu64 ", held %" PRIu64
-                  ", repeated %" PRIu64 ", empty periods %" PRIu64 "\n",
-                  p.c_str(), s.complete_cycles, s.incomplete_cycles, s.missing_values, s.held_values,
-                  s.repeated_values, s.empty_periods);
-    out += line;
-  } else if (summary.mode == ConvertSummary::Mode::signals) {
-    const SignalRowCounts& c = summary.signals;
-    std::snprintf(line, sizeof line,
-                  "%sframes read %" PRIu64 ", decoded %" PRIu64 ", unknown ids %" PRIu64 ", short %" PRIu64
-                  ", bad lines %" PRIu64 ", lost frames %" PRIu64 ", filtered (--bus) %" PRIu64 "\n",
-                  p.c_str(), f.frames, c.decoded, c.unknown_ids, c.short_frames, f.bad_lines, f.lost_frames,
-                  f.filtered);
-    out += line;
+    return counter_line(prefix, {{"frames read", f.frames}, {"decoded", s.decoded}, {"unknown ids", s.unknown_ids},
+                                 {"sync", s.sync_frames}, {"error frames", s.error_frames},
+                                 {"remote", s.remote_frames}, {"short", s.short_frames}}) +
+           counter_line(prefix, {{"bad lines", f.bad_lines}, {"lost frames", f.lost_frames},
+                                 {"bad records", f.bad_records}, {"frames before the first cycle", s.before_first_cycle},
+                                 {"filtered (--bus)", f.filtered}}) +
+           counter_line(prefix, {{"cycles complete", s.complete_cycles}, {"incomplete", s.incomplete_cycles},
+                                 {"values missing", s.missing_values}, {"held", s.held_values},
+                                 {"repeated", s.repeated_values}, {"empty periods", s.empty_periods}});
   }
-  return out;
+  if (summary.mode == ConvertSummary::Mode::signals) {
+    const SignalRowCounts& c = summary.signals;
+    return counter_line(prefix, {{"frames read", f.frames}, {"decoded", c.decoded}, {"unknown ids", c.unknown_ids},
+                                 {"short", c.short_frames}, {"bad lines", f.bad_lines}, {"lost frames", f.lost_frames},
+                                 {"filtered (--bus)", f.filtered}});
+  }
+  return {};
 }
 
 std::string summary_json_line(const ConvertSummary& summary) {

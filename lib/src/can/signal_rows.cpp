@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cstring>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::can {
@@ -76,32 +77,7 @@ std::size_t format_frame_time(const Frame& frame, char* out) {
     std::memcpy(out, "nan", 3);
     return 3;
   }
-  std::int64_t ns = frame.time_ns;
-  std::size_t n = 0;
-  if (ns < 0) {
-    out[n++] = '-';
-    ns = -ns;
-  }
-  const bool whole_micro = ns % 1000 == 0;
-  std::int64_t seconds = ns / 1000000000, fraction = ns % 1000000000;
-  char digits[24];
-  int d = 0;
-  do {
-    digits[d++] = static_cast<char>('0' + seconds % 10);
-    seconds /= 10;
-  } while (seconds > 0);
-  while (d > 0) out[n++] = digits[--d];
-  out[n++] = '.';
-  int width = 9;
-  if (whole_micro) {
-    fraction /= 1000;
-    width = 6;
-  }
-  for (int i = width - 1; i >= 0; --i) {
-    out[n + static_cast<std::size_t>(i)] = static_cast<char>('0' + fraction % 10);
-    fraction /= 10;
-  }
-  return n + static_cast<std::size_t>(width);
+  return core::format_nanoseconds(frame.time_ns, 0, out);
 }
 
 std::uint32_t parse_can_id(std::string_view text) {

@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <utility>
 
+#include "momentum/core/number.hpp"
+
 namespace momentum {
 namespace {
 void default_sink(std::string_view message) {
@@ -42,10 +44,6 @@ std::string located(std::string_view file, std::uint64_t line, std::string_view 
   return out;
 }
 
-std::string short_number(double x) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.6g", x == 0.0 ? 0.0 : x);
-  return text;
-}
+std::string short_number(double x) { return core::short_number(x); }
 
 }  // namespace momentum

@@ -9,23 +9,24 @@
 
 #include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
-#include "momentum/stream/format.hpp"
 #include "momentum/stream/reader.hpp"
 
 namespace momentum::detect {
 
-namespace {
-
-std::string num(double x) { return core::exact(x); }
-
-// A gnuplot single-quoted string: '' stands for one quote.
-std::string gp_string(const std::string& text) {
+std::string gnuplot_string(const std::string& text) {
   std::string out = "'";
   for (char c : text) out += c == '\'' ? std::string("''") : std::string(1, c);
   return out + "'";
 }
 
-}  // namespace
+std::string gnuplot_output(const PlotOptions& options, int height, const std::string& output) {
+  const std::string size = std::to_string(options.width) + "," + std::to_string(height);
+  std::string s = options.format == "svg"
+                      ? "set terminal svg size " + size + " dynamic font 'Sans,11' background rgb 'white'\n"
+                      : "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {\n  set terminal pngcairo size " + size +
+                            " font 'Sans,10' background rgb 'white'\n} else {\n  set terminal png size " + size + "\n}\n";
+  return s + (output == "-" ? std::string("set output\n") : "set output " + gnuplot_string(output) + "\n");
+}
 
 bool PlotOptions::IsValid(std::string* why) const {
   auto bad = [&](const std::string& text) {
@@ -133,17 +134,7 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
   const int height = static_cast<int>(n) * options.panel_height + (options.title.empty() ? 40 : 80);
   std::string s;
   s += "# momentum: residuals against thresholds\n";
-  if (options.format == "svg") {
-    s += "set terminal svg size " + std::to_string(options.width) + "," + std::to_string(height) +
-         " dynamic font 'Sans,11' background rgb 'white'\n";
-  } else {
-    s += "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {\n  set terminal pngcairo size " +
-         std::to_string(options.width) + "," + std::to_string(height) +
-         " font 'Sans,10' background rgb 'white'\n} else {\n  set terminal png size " + std::to_string(options.width) +
-         "," + std::to_string(height) + "\n}\n";
-  }
-  // "-": standard output, as everywhere in the suite (gnuplot writes there without a name).
-  s += output == "-" ? std::string("set output\n") : "set output " + gp_string(output) + "\n";
+  s += gnuplot_output(options, height, output);
   // Data blocks: residual as a min/max zig-zag per bucket, band as steps.
   const auto& buckets = data.buckets();
   for (std::size_t c = 0; c < columns; ++c) {
@@ -156,8 +147,8 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
           s += "\n";  // no finite value in the bucket: a gap in the line
           continue;
         }
-        s += num(b.t0) + " " + num(r.lo) + "\n";
-        if (r.hi != r.lo || b.t1 != b.t0) s += num(b.t1) + " " + num(r.hi) + "\n";
+        s += core::exact(b.t0) + " " + core::exact(r.lo) + "\n";
+        if (r.hi != r.lo || b.t1 != b.t0) s += core::exact(b.t1) + " " + core::exact(r.hi) + "\n";
       }
       s += "EOD\n";
       if (data.has_band(c)) {
@@ -165,12 +156,12 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
         for (const auto& b : buckets) {
           const auto& r = b.band[k];
           if (!std::isfinite(r.lo) || !std::isfinite(r.hi)) continue;
-          s += num(b.t0) + " " + num(r.lo) + " " + num(r.hi) + "\n";
+          s += core::exact(b.t0) + " " + core::exact(r.lo) + " " + core::exact(r.hi) + "\n";
         }
         if (!buckets.empty()) {
           const auto& r = buckets.back().band[k];
           if (std::isfinite(r.lo) && std::isfinite(r.hi))
-            s += num(buckets.back().t1) + " " + num(r.lo) + " " + num(r.hi) + "\n";
+            s += core::exact(buckets.back().t1) + " " + core::exact(r.lo) + " " + core::exact(r.hi) + "\n";
         }
         s += "EOD\n";
       }
@@ -185,20 +176,20 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
   int object = 1;
   for (const auto& c : truth) {
     if (have_range && (c.t_end < t_min || c.t_onset > t_max)) continue;
-    s += "set object " + std::to_string(object++) + " rect from " + num(c.t_onset) + ", graph 0 to " + num(c.t_end) +
+    s += "set object " + std::to_string(object++) + " rect from " + core::exact(c.t_onset) + ", graph 0 to " + core::exact(c.t_end) +
          ", graph 1 back fc rgb '#c8ecc8' fs solid 1.0 noborder\n";
   }
   int arrow = 1;
   for (const auto& e : events) {
     if (have_range && (e.t_detect < t_min || e.t_detect > t_max)) continue;
-    s += "set arrow " + std::to_string(arrow++) + " from " + num(e.t_detect) + ", graph 0 to " + num(e.t_detect) +
+    s += "set arrow " + std::to_string(arrow++) + " from " + core::exact(e.t_detect) + ", graph 0 to " + core::exact(e.t_detect) +
          ", graph 1 nohead front lc rgb '#d62728' lw 1.2 dt 2\n";
   }
   s += "set multiplot layout " + std::to_string(n) + "," + std::to_string(columns) +
-       (options.title.empty() ? "" : " title " + gp_string(options.title) + " font ',13'") + "\n";
+       (options.title.empty() ? "" : " title " + gnuplot_string(options.title) + " font ',13'") + "\n";
   s += "set grid lc rgb '#dddddd'\nset ylabel 'Nm'\n";
   s += "set lmargin 10\nset rmargin 3\n";
-  if (have_range) s += "set xrange [" + num(t_min) + ":" + num(t_max) + "]\n";
+  if (have_range) s += "set xrange [" + core::exact(t_min) + ":" + core::exact(t_max) + "]\n";
   for (std::size_t j = 0; j < n; ++j) {
     for (std::size_t c = 0; c < columns; ++c) {
       const Signal sig = data.signals()[c];
@@ -206,22 +197,22 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
                           (sig == Signal::mu ? std::string("mu (friction compensated)")
                                              : std::string("r (no friction compensation)"));
       if (!data.has_band(c)) title += ", no thresholds";
-      s += "set title " + gp_string(title) + " font ',11'\n";
+      s += "set title " + gnuplot_string(title) + " font ',11'\n";
       s += j + 1 == n ? "set xlabel 't (s)'\n" : "unset xlabel\n";
       // Event labels (the isolated link) on the top row only.
       if (j == 0) {
         int label = 1;
         for (const auto& e : events) {
           if (have_range && (e.t_detect < t_min || e.t_detect > t_max)) continue;
-          s += "set label " + std::to_string(label++) + " " + gp_string("L" + std::to_string(e.link)) + " at " +
-               num(e.t_detect) + ", graph 1.04 center tc rgb '#d62728' font ',8'\n";
+          s += "set label " + std::to_string(label++) + " " + gnuplot_string("L" + std::to_string(e.link)) + " at " +
+               core::exact(e.t_detect) + ", graph 1.04 center tc rgb '#d62728' font ',8'\n";
         }
         // The link each true contact was on, in the band's green, so that an isolation error
         // (red label differing from the green one) shows at a glance.
         for (const auto& c : truth) {
           if (have_range && (c.t_end < t_min || c.t_onset > t_max)) continue;
-          s += "set label " + std::to_string(label++) + " " + gp_string("L" + std::to_string(c.link)) + " at " +
-               num(c.t_onset) + ", graph 0.94 left front tc rgb '#2ca02c' font ',8'\n";
+          s += "set label " + std::to_string(label++) + " " + gnuplot_string("L" + std::to_string(c.link)) + " at " +
+               core::exact(c.t_onset) + ", graph 0.94 left front tc rgb '#2ca02c' font ',8'\n";
         }
       } else if (j == 1) {
         s += "unset label\n";

@@ -1,45 +1,13 @@
 #include "momentum/detect/plot_views.hpp"
 
 #include <algorithm>
-#include <map>
 #include <cmath>
-#include <cstdio>
+#include <map>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
-#include "momentum/stream/format.hpp"
 
 namespace momentum::detect {
-
-namespace {
-
-std::string num(double x) {
-  char buffer[40];
-  return std::string(buffer, stream::format_double(x, buffer));
-}
-
-std::string gp_string(const std::string& text) {
-  std::string out = "'";
-  for (char c : text) out += c == '\'' ? std::string("''") : std::string(1, c);
-  return out + "'";
-}
-
-std::string terminal(const PlotOptions& options, int height) {
-  if (options.format == "svg")
-    return "set terminal svg size " + std::to_string(options.width) + "," + std::to_string(height) +
-           " dynamic font 'Sans,11' background rgb 'white'\n";
-  return "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {\n  set terminal pngcairo size " +
-         std::to_string(options.width) + "," + std::to_string(height) +
-         " font 'Sans,10' background rgb 'white'\n} else {\n  set terminal png size " +
-         std::to_string(options.width) + "," + std::to_string(height) + "\n}\n";
-}
-
-std::string short_number(double x) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.3g", x);
-  return buffer;
-}
-
-}  // namespace
 
 std::string force_view_script(const std::vector<ForcePoint>& points, const std::string& output,
                               const PlotOptions& options) {
@@ -49,14 +17,13 @@ std::string force_view_script(const std::vector<ForcePoint>& points, const std::
   std::map<int, std::string> by_link;
   for (const auto& p : points) {
     top = std::max({top, p.truth, p.estimate});
-    by_link[p.link] += num(p.truth) + " " + num(p.estimate) + "\n";
+    by_link[p.link] += core::exact(p.truth) + " " + core::exact(p.estimate) + "\n";
   }
-  std::string s = "# momentum: estimated against true contact force\n" + terminal(options, height);
-  s += output == "-" ? std::string("set output\n") : "set output " + gp_string(output) + "\n";
+  std::string s = "# momentum: estimated against true contact force\n" + gnuplot_output(options, height, output);
   for (const auto& [link, rows] : by_link) s += "$link" + std::to_string(link) + " << EOD\n" + rows + "EOD\n";
-  if (!options.title.empty()) s += "set title " + gp_string(options.title) + "\n";
+  if (!options.title.empty()) s += "set title " + gnuplot_string(options.title) + "\n";
   s += "set xlabel 'true peak force (N)'\nset ylabel 'estimated peak force (N)'\nset grid\nset key top left\n";
-  s += "set xrange [0:" + num(1.1 * top) + "]\nset yrange [0:" + num(1.1 * top) + "]\nset size ratio -1\n";
+  s += "set xrange [0:" + core::exact(1.1 * top) + "]\nset yrange [0:" + core::exact(1.1 * top) + "]\nset size ratio -1\n";
   s += "plot x title 'estimate = truth' lc rgb 'gray' dt 2";
   for (const auto& [link, rows] : by_link)
     s += ", $link" + std::to_string(link) + " using 1:2 with points pt 7 ps 1.2 title 'link " + std::to_string(link) + "'";
@@ -165,11 +132,10 @@ std::string ViewData::gnuplot_script(const std::vector<TruthContact>& truth, con
   const std::size_t columns = view_ == PlotView::events ? std::min<std::size_t>(panels, 3) : 1;
   const std::size_t rows = (panels + columns - 1) / columns;
   const int height = static_cast<int>(rows) * options.panel_height + (options.title.empty() ? 40 : 80);
-  s += terminal(options, height);
-  s += "set output " + gp_string(output) + "\n";
+  s += gnuplot_output(options, height, output);
   s += "set grid lc rgb '#dddddd'\nset lmargin 10\nset rmargin 3\n";
   s += "set multiplot layout " + std::to_string(rows) + "," + std::to_string(columns) +
-       (options.title.empty() ? "" : " title " + gp_string(options.title) + " font ',13'") + "\n";
+       (options.title.empty() ? "" : " title " + gnuplot_string(options.title) + " font ',13'") + "\n";
   static const char* colours[] = {"#1f77b4", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f"};
 
   if (view_ == PlotView::events) {
@@ -178,7 +144,7 @@ std::string ViewData::gnuplot_script(const std::vector<TruthContact>& truth, con
       const auto& w = windows_[k];
       s += "$e" + std::to_string(k) + " << EOD\n";
       for (std::size_t r = 0; r + joints_ < w.size(); r += joints_ + 1) {
-        for (std::size_t c = 0; c <= joints_; ++c) s += (c ? " " : "") + num(w[r + c]);
+        for (std::size_t c = 0; c <= joints_; ++c) s += (c ? " " : "") + core::exact(w[r + c]);
         s += "\n";
       }
       s += "EOD\n";
@@ -189,18 +155,18 @@ std::string ViewData::gnuplot_script(const std::vector<TruthContact>& truth, con
       int object = 1;
       for (const auto& c : truth) {
         if (c.t_end < e.t_onset_estimate - kPad || c.t_onset > end + kPad) continue;
-        s += "set object " + std::to_string(object++) + " rect from " + num(c.t_onset) + ", graph 0 to " +
-             num(c.t_end) + ", graph 1 back fc rgb '#c8ecc8' fs solid 1.0 noborder\n";
-        s += "set label " + std::to_string(object) + " " + gp_string("L" + std::to_string(c.link)) + " at " +
-             num(c.t_onset) + ", graph 0.92 left front tc rgb '#2ca02c' font ',9'\n";
+        s += "set object " + std::to_string(object++) + " rect from " + core::exact(c.t_onset) + ", graph 0 to " +
+             core::exact(c.t_end) + ", graph 1 back fc rgb '#c8ecc8' fs solid 1.0 noborder\n";
+        s += "set label " + std::to_string(object) + " " + gnuplot_string("L" + std::to_string(c.link)) + " at " +
+             core::exact(c.t_onset) + ", graph 0.92 left front tc rgb '#2ca02c' font ',9'\n";
         truth_text = "true L" + std::to_string(c.link) + (c.link == e.link ? "" : " (isolation error)");
       }
       if (truth.empty()) truth_text = "no truth given";
-      s += "set arrow 1 from " + num(e.t_detect) + ", graph 0 to " + num(e.t_detect) +
+      s += "set arrow 1 from " + core::exact(e.t_detect) + ", graph 0 to " + core::exact(e.t_detect) +
            ", graph 1 nohead front lc rgb '#d62728' lw 1.2 dt 2\n";
-      s += "set label 100 " + gp_string("L" + std::to_string(e.link)) + " at " + num(e.t_detect) +
+      s += "set label 100 " + gnuplot_string("L" + std::to_string(e.link)) + " at " + core::exact(e.t_detect) +
            ", graph 1.05 center tc rgb '#d62728' font ',9'\n";
-      s += "set title " + gp_string("event " + std::to_string(e.id) + " at " + short_number(e.t_detect) +
+      s += "set title " + gnuplot_string("event " + std::to_string(e.id) + " at " + core::significant(e.t_detect, 3) +
                                     " s: detected L" + std::to_string(e.link) + ", " + truth_text) +
            " font ',10'\n";
       s += "set xlabel 't (s)'\nset ylabel '" + name + " (Nm)'\n";
@@ -229,21 +195,21 @@ std::string ViewData::gnuplot_script(const std::vector<TruthContact>& truth, con
         if (counts_[j][b] == 0) continue;
         const double lo = std::pow(10.0, kMinDecade + static_cast<double>(b) / kBinsPerDecade);
         const double hi = std::pow(10.0, kMinDecade + static_cast<double>(b + 1) / kBinsPerDecade);
-        s += num(std::sqrt(lo * hi)) + " " + std::to_string(counts_[j][b]) + " " + num(lo) + " " + num(hi) + "\n";
+        s += core::exact(std::sqrt(lo * hi)) + " " + std::to_string(counts_[j][b]) + " " + core::exact(lo) + " " + core::exact(hi) + "\n";
       }
       s += "EOD\n";
       std::string title = "joint " + std::to_string(j + 1) + ": |" + name + "|";
       s += "unset arrow\n";
       if (thresholds_) {
         const JointThreshold& t = thresholds_->joints[j];
-        s += "set arrow 1 from " + num(t.moving) + ", graph 0 to " + num(t.moving) +
+        s += "set arrow 1 from " + core::exact(t.moving) + ", graph 0 to " + core::exact(t.moving) +
              ", graph 1 nohead front lc rgb '#ff7f0e' lw 2\n";
         const double share = rows_ ? static_cast<double>(outside_[j]) / static_cast<double>(rows_) : 0.0;
-        title += ", moving threshold " + short_number(t.moving) + " Nm: " + std::to_string(outside_[j]) +
-                 " of " + std::to_string(rows_) + " rows outside the band (" + short_number(share) + " per row" +
-                 (hours > 0 ? ", " + short_number(static_cast<double>(outside_[j]) / hours) + " per hour" : "") + ")";
+        title += ", moving threshold " + core::significant(t.moving, 3) + " Nm: " + std::to_string(outside_[j]) +
+                 " of " + std::to_string(rows_) + " rows outside the band (" + core::significant(share, 3) + " per row" +
+                 (hours > 0 ? ", " + core::significant(static_cast<double>(outside_[j]) / hours, 3) + " per hour" : "") + ")";
       }
-      s += "set title " + gp_string(title) + " font ',10'\n";
+      s += "set title " + gnuplot_string(title) + " font ',10'\n";
       s += "set logscale xy\nset xlabel '|" + name + "| (Nm)'\nset ylabel 'rows'\n";
       s += j == 0 ? "set key top right opaque box lc rgb '#bbbbbb' font ',8'\n" : "unset key\n";
       s += "plot $h" + std::to_string(j) + " using 1:2:3:4:(0.8):2 with boxxyerror fs solid 0.6 lc rgb '#1f77b4' " +
@@ -256,17 +222,17 @@ std::string ViewData::gnuplot_script(const std::vector<TruthContact>& truth, con
       s += "$m" + std::to_string(j) + " << EOD\n";
       for (std::size_t b = 0; b < kSpeedBins; ++b) {
         if (std::isnan(peak_[j][b])) continue;
-        s += num((static_cast<double>(b) + 0.5) * kSpeedBin) + " " + num(peak_[j][b]) + " " + num(bound_[j][b]) + "\n";
+        s += core::exact((static_cast<double>(b) + 0.5) * kSpeedBin) + " " + core::exact(peak_[j][b]) + " " + core::exact(bound_[j][b]) + "\n";
       }
       s += "EOD\n";
       const JointThreshold& t = thresholds_->joints[j];
-      std::string rule = t.envelope ? "envelope " + short_number(t.envelope->a) + " + " + short_number(t.envelope->b) + " |dq|"
-                                    : "constant " + short_number(t.moving) + " Nm";
-      s += "set title " + gp_string("joint " + std::to_string(j + 1) + ": largest |" + name + "| per speed, threshold " + rule) +
+      std::string rule = t.envelope ? "envelope " + core::significant(t.envelope->a, 3) + " + " + core::significant(t.envelope->b, 3) + " |dq|"
+                                    : "constant " + core::significant(t.moving, 3) + " Nm";
+      s += "set title " + gnuplot_string("joint " + std::to_string(j + 1) + ": largest |" + name + "| per speed, threshold " + rule) +
            " font ',10'\n";
       s += "unset logscale\nset xlabel '|dq| (rad/s)'\nset ylabel '|" + name + "| (Nm)'\nset yrange [0:*]\n";
-      s += "unset arrow\nset arrow 1 from " + num(thresholds_->rest_rule.velocity) + ", graph 0 to " +
-           num(thresholds_->rest_rule.velocity) + ", graph 1 nohead back lc rgb '#aaaaaa' dt 3\n";
+      s += "unset arrow\nset arrow 1 from " + core::exact(thresholds_->rest_rule.velocity) + ", graph 0 to " +
+           core::exact(thresholds_->rest_rule.velocity) + ", graph 1 nohead back lc rgb '#aaaaaa' dt 3\n";
       s += j == 0 ? "set key top left opaque box lc rgb '#bbbbbb' font ',8'\n" : "unset key\n";
       s += "plot $m" + std::to_string(j) + " using 1:2 with points pt 7 ps 0.4 lc rgb '#1f77b4' " +
            (j == 0 ? "title 'largest |" + name + "| (data)'" : std::string("notitle")) + ", $m" + std::to_string(j) +

@@ -5,6 +5,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::model {
@@ -128,11 +129,7 @@ nlohmann::json inertial_corrections_section(const Model& model, const Eigen::Vec
 }
 
 std::string describe_corrections(const Model& nominal, const Model& corrected) {
-  auto num = [](double x) {
-    char buffer[32];
-    std::snprintf(buffer, sizeof buffer, "%.6g", x);
-    return std::string(buffer);
-  };
+  auto num = [](double x) { return core::significant(x, 6); };  // -0 stays "-0", as printf wrote it
   auto triple = [&](const Eigen::Vector3d& v) { return num(v.x()) + " " + num(v.y()) + " " + num(v.z()); };
   auto principal = [&](const Eigen::Matrix3d& inertia) {
     return triple(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia, Eigen::EigenvaluesOnly).eigenvalues());

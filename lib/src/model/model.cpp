@@ -17,6 +17,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "momentum/core/number.hpp"
 #include "momentum/model/collision.hpp"
 #include "momentum/model/inertial_corrections.hpp"
 #include "momentum/stream/error.hpp"
@@ -171,11 +172,7 @@ struct Builder {
     if (!std::isfinite(inertial.mass) || !inertia.allFinite()) {
       fail("link " + name + ": mass and inertia must be finite");
     }
-    if (inertial.mass < 0.0) {
-      std::ostringstream text;
-      text << "link " << name << ": negative mass " << inertial.mass;
-      fail(text.str());
-    }
+    if (inertial.mass < 0.0) fail("link " + name + ": negative mass " + core::short_number(inertial.mass));
     if (inertial.mass == 0.0) {
       // A massless frame (tool0, ee_link, ...) is fine; inertia without mass is not physical.
       if (!inertia.isZero(0.0)) fail("link " + name + ": zero mass with a nonzero inertia");

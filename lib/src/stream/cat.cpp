@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
@@ -25,8 +26,11 @@ std::string format_stats(const StreamStats& stats) {
   put("rows        %" PRIu64 "\n", s.rows);
   put("columns     %zu\n", s.columns);
   if (s.has_time) {
-    put("time        %.9g .. %.9g s (span %.9g s)\n", s.t_first, s.t_last, s.t_last - s.t_first);
-    put("dt          min %.6g  median %.6g  max %.6g s\n", s.dt_min, s.dt_median, s.dt_max);
+    auto digits = [](double x, int n) { return core::significant(x, n); };
+    text += "time        " + digits(s.t_first, 9) + " .. " + digits(s.t_last, 9) + " s (span " +
+            digits(s.t_last - s.t_first, 9) + " s)\n";
+    text += "dt          min " + digits(s.dt_min, 6) + "  median " + digits(s.dt_median, 6) + "  max " +
+            digits(s.dt_max, 6) + " s\n";
     auto anomaly = [&](const char* label, const StreamStats::Anomaly& a) {
       put("%-11s %" PRIu64, label, a.count);
       for (std::size_t i = 0; i < a.first.size(); ++i) put("%s%s", i ? ", " : "  at ", a.first[i].c_str());

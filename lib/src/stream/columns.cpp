@@ -4,16 +4,17 @@
 #include <cctype>
 #include <charconv>
 
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::stream {
 
 std::vector<std::string> expand_column_list(std::string_view list) {
   std::vector<std::string> out;
-  std::size_t start = 0;
-  for (;;) {
-    std::size_t comma = list.find(',', start);
-    std::string_view item = list.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start);
+  std::vector<std::string> items = core::split(list);
+  if (items.empty()) items.emplace_back();  // "": one empty item, refused below
+  for (const std::string& text : items) {
+    const std::string_view item = text;
     if (item.empty()) throw Error("empty item in column list '" + std::string(list) + "'");
     // "name<a>-<b>": both ends numbers, the name before <a> not ending in a digit.
     std::size_t dash = item.rfind('-');
@@ -35,8 +36,6 @@ std::vector<std::string> expand_column_list(std::string_view list) {
       }
     }
     if (!ranged) out.emplace_back(item);
-    if (comma == std::string_view::npos) break;
-    start = comma + 1;
   }
   return out;
 }

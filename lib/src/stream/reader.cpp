@@ -176,15 +176,24 @@ void check_columns(const std::vector<std::string>& columns, const std::string& w
 
 using core::trim;
 
-class CsvReader final : public Reader {
- public:
-  CsvReader(std::unique_ptr<Input> input, std::string display, const ReaderOptions& options)
+// What both encodings' readers start with: their input, name and options.
+class InputReader : public Reader {
+ protected:
+  InputReader(std::unique_ptr<Input> input, std::string display, const ReaderOptions& options, Encoding encoding)
       : in_(std::move(input)) {
     name_ = std::move(display);
     strict_ = options.strict;
-    encoding_ = Encoding::csv;
+    encoding_ = encoding;
     before_read_ = options.before_read;
     in_->before_read = &before_read_;
+  }
+  std::unique_ptr<Input> in_;
+};
+
+class CsvReader final : public InputReader {
+ public:
+  CsvReader(std::unique_ptr<Input> input, std::string display, const ReaderOptions& options)
+      : InputReader(std::move(input), std::move(display), options, Encoding::csv) {
     std::string_view line;
     bool have_line = false;
     while (next_line(line)) {
@@ -201,13 +210,7 @@ class CsvReader final : public Reader {
         if (line_number_ == 0) throw Error(name() + ": empty input");
         throw Error(name() + ": no header line (only comments)");
       }
-      std::size_t start = 0;
-      for (;;) {
-        std::size_t comma = line.find(',', start);
-        columns_.emplace_back(trim(line.substr(start, comma - start)));
-        if (comma == std::string_view::npos) break;
-        start = comma + 1;
-      }
+      for (const std::string& column : core::split(line)) columns_.emplace_back(trim(column));
       check_columns(columns_, located(name(), line_number_, "header"));
       for (std::size_t i = 0; i < columns_.size(); ++i) keep_.push_back(i);
       fields_ = columns_.size();
@@ -343,7 +346,6 @@ class CsvReader final : public Reader {
     return "_";
   }
 
-  std::unique_ptr<Input> in_;
   bool discarding_ = false;  // inside a line longer than kMaxLineBytes
   std::size_t scanned_ = 0;
   std::uint64_t line_number_ = 0;
@@ -356,15 +358,10 @@ class CsvReader final : public Reader {
   std::uint64_t pending_line_ = 0;
 };
 
-class BinaryReader final : public Reader {
+class BinaryReader final : public InputReader {
  public:
   BinaryReader(std::unique_ptr<Input> input, std::string display, const ReaderOptions& options)
-      : in_(std::move(input)) {
-    name_ = std::move(display);
-    strict_ = options.strict;
-    encoding_ = Encoding::binary;
-    before_read_ = options.before_read;
-    in_->before_read = &before_read_;
+      : InputReader(std::move(input), std::move(display), options, Encoding::binary) {
     if (!in_->want(sizeof kBinaryMagic) || std::memcmp(in_->data(), kBinaryMagic, sizeof kBinaryMagic) != 0)
       throw Error(name() + ": byte 0: wrong magic (not a momentum binary stream)");
     in_->consume(sizeof kBinaryMagic);
@@ -445,7 +442,6 @@ class BinaryReader final : public Reader {
     return s;
   }
 
-  std::unique_ptr<Input> in_;
   std::vector<double> row_;
   std::size_t record_ = 0;
 };

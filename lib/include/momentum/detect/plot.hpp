@@ -85,6 +85,14 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
                            const std::vector<TruthContact>& truth, const std::string& output,
                            const PlotOptions& options);
 
+// `text` as a gnuplot single-quoted string: '' stands for one quote.
+std::string gnuplot_string(const std::string& text);
+
+// The start of every figure's script: the terminal for an image of options.width x `height`
+// pixels in options.format (png through pngcairo when gnuplot has it), and the output file
+// (`output` "-": standard output, as everywhere in the suite).
+std::string gnuplot_output(const PlotOptions& options, int height, const std::string& output);
+
 // Runs gnuplot on `script`. Throws momentum::Error when gnuplot cannot be run or fails (its
 // own messages go to stderr).
 void run_gnuplot(const std::string& script);

@@ -1,0 +1,53 @@
+#pragma once
+// mo-plot's figures of a stream, read as mo-plot reads it: which residual columns to draw, the
+// profile's thresholds for them, and the rows read into the figure data of the time view
+// (plot.hpp) or of another view (plot_views.hpp), down to the gnuplot script.
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "momentum/detect/events.hpp"
+#include "momentum/detect/plot.hpp"
+#include "momentum/detect/plot_views.hpp"
+#include "momentum/detect/thresholds.hpp"
+#include "momentum/stream/reader.hpp"
+
+namespace momentum::detect {
+
+// The columns of a stream that a figure draws.
+struct PlotColumns {
+  std::size_t time = 0;                          // column of t
+  std::vector<Signal> signals;                   // in panel order
+  std::size_t joints = 0;                        // n, >= 1
+  std::vector<std::vector<std::size_t>> values;  // per signal, its columns <signal>1..n
+  std::vector<std::size_t> velocity;             // dq1..n, empty when the stream lacks them
+  std::size_t view_signal = 0;                   // index in signals of the one a view other than time draws
+};
+
+// The columns of `signals` in `in` (t, <signal>1..n with n from the first signal, dq1..n when
+// all are there). `signals` empty: those the stream has, r first, and the views other than
+// time draw mu when the stream has it (what mo-detect uses); else the views draw the first
+// one. Throws momentum::Error naming the stream when t is missing, when it has neither r1 nor
+// mu1 (and `signals` is empty), or when a signal's columns are missing.
+PlotColumns plot_columns(const stream::Reader& in, const std::vector<Signal>& signals);
+
+// The thresholds of each of `signals` from the profile at `profile_path` (empty: none), nullopt
+// for a signal the profile has none for (warned about through momentum::warn: no band is
+// drawn). Throws what model::load_profile and thresholds_from_profile throw.
+std::vector<std::optional<Thresholds>> plot_thresholds(const std::string& profile_path,
+                                                       const std::vector<Signal>& signals);
+
+// Reads the rows of `in` into the figure of `view` (not force) and returns its gnuplot script,
+// which draws `output` with `events` and the `truth` contacts marked. Rows whose time goes
+// backwards are rejected (stream::Reader::reject_row); in the time view, a row the stream
+// marks as a clock step goes on from the last row's time (warned about), so that the time axis
+// does not draw over earlier rows. Throws momentum::Error when no row is left to plot (in
+// options' time window), and what the reader and the script throw.
+std::string stream_plot_script(stream::Reader& in, const PlotColumns& columns,
+                               const std::vector<std::optional<Thresholds>>& thresholds, PlotView view,
+                               const std::vector<Event>& events, const std::vector<TruthContact>& truth,
+                               const std::string& output, const PlotOptions& options);
+
+}  // namespace momentum::detect

@@ -1,0 +1,112 @@
+#include "momentum/detect/plot_stream.hpp"
+
+#include <cmath>
+
+#include "momentum/model/profile.hpp"
+#include "momentum/stream/columns.hpp"
+#include "momentum/stream/error.hpp"
+
+namespace momentum::detect {
+
+PlotColumns plot_columns(const stream::Reader& in, const std::vector<Signal>& signals) {
+  PlotColumns out;
+  out.time = in.require("t");
+  out.signals = signals;
+  if (out.signals.empty()) {
+    if (in.find("r1")) out.signals.push_back(Signal::r);
+    if (in.find("mu1")) out.signals.push_back(Signal::mu);
+    if (out.signals.empty()) throw Error(in.name() + ": no r1 or mu1 column (run mo-observe first)");
+    for (std::size_t s = 0; s < out.signals.size(); ++s)
+      if (out.signals[s] == Signal::mu) out.view_signal = s;
+  }
+  const std::string first(signal_name(out.signals.front()));
+  out.joints = stream::count_joint_columns(in.columns(), first);
+  if (out.joints == 0) throw Error(in.name() + ": missing column '" + first + "1'");
+  for (Signal s : out.signals)
+    out.values.push_back(stream::column_indices(in.columns(), stream::joint_columns(signal_name(s), out.joints), in.name()));
+  if (stream::count_joint_columns(in.columns(), "dq") >= out.joints)
+    out.velocity = stream::column_indices(in.columns(), stream::joint_columns("dq", out.joints), in.name());
+  return out;
+}
+
+std::vector<std::optional<Thresholds>> plot_thresholds(const std::string& profile_path,
+                                                       const std::vector<Signal>& signals) {
+  std::vector<std::optional<Thresholds>> thresholds(signals.size());
+  if (profile_path.empty()) return thresholds;
+  const model::Profile profile = model::load_profile(profile_path);
+  for (std::size_t s = 0; s < signals.size(); ++s) {
+    thresholds[s] = thresholds_from_profile(profile.document, signals[s], profile_path);
+    if (!thresholds[s]) warn(profile_path + ": no thresholds for " + std::string(signal_name(signals[s])) + ": none drawn");
+  }
+  return thresholds;
+}
+
+namespace {
+
+// A view of one signal: rows outside the time window are left out.
+std::string view_script(stream::Reader& in, const PlotColumns& c, const std::optional<Thresholds>& thresholds,
+                        PlotView view, const std::vector<Event>& events, const std::vector<TruthContact>& truth,
+                        const std::string& output, const PlotOptions& options) {
+  const std::size_t n = c.joints;
+  const std::vector<std::size_t>& columns = c.values[c.view_signal];
+  ViewData data(view, c.signals[c.view_signal], thresholds, n, !c.velocity.empty(), event_spans(events));
+  std::vector<double> x(n), dq(n);
+  double t_prev = -INFINITY;
+  while (const double* row = in.next()) {
+    const double t = row[c.time];
+    if (!(t >= t_prev)) {
+      in.reject_row("time goes backwards");
+      continue;
+    }
+    t_prev = t;
+    if (t < options.from || t > options.to) continue;
+    for (std::size_t j = 0; j < n; ++j) x[j] = row[columns[j]];
+    for (std::size_t j = 0; j < c.velocity.size(); ++j) dq[j] = row[c.velocity[j]];
+    data.add(t, x.data(), c.velocity.empty() ? nullptr : dq.data());
+  }
+  if (data.rows() == 0) throw Error(in.name() + ": no rows to plot");
+  return data.gnuplot_script(truth, output, options);
+}
+
+}  // namespace
+
+std::string stream_plot_script(stream::Reader& in, const PlotColumns& c,
+                               const std::vector<std::optional<Thresholds>>& thresholds, PlotView view,
+                               const std::vector<Event>& events, const std::vector<TruthContact>& truth,
+                               const std::string& output, const PlotOptions& options) {
+  if (view != PlotView::time)
+    return view_script(in, c, thresholds[c.view_signal], view, events, truth, output, options);
+  const std::size_t n = c.joints, signals = c.signals.size();
+  PlotData data(c.signals, thresholds, n, !c.velocity.empty(), options);
+  std::vector<std::vector<double>> x(signals, std::vector<double>(n));
+  std::vector<const double*> rows(signals);
+  std::vector<double> dq(n);
+  double t_prev = -INFINITY, shift = 0, step = 0;
+  while (const double* row = in.next()) {
+    if (in.time_mark() == stream::TimeMark::clock_step) {
+      // The stream's time policy kept this row as the start of a new time line: the time
+      // axis goes on from the last row instead of drawing over earlier rows.
+      shift = t_prev + step - row[c.time];
+      warn(in.where() + ": the clock stepped back; the plot shifts the rows from here by " + short_number(shift) + " s");
+    }
+    const double t = row[c.time] + shift;
+    if (!(t >= t_prev)) {
+      in.reject_row("time goes backwards");
+      continue;
+    }
+    if (std::isfinite(t_prev)) step = t - t_prev;
+    t_prev = t;
+    for (std::size_t s = 0; s < signals; ++s) {
+      for (std::size_t j = 0; j < n; ++j) x[s][j] = row[c.values[s][j]];
+      rows[s] = x[s].data();
+    }
+    for (std::size_t j = 0; j < c.velocity.size(); ++j) dq[j] = row[c.velocity[j]];
+    data.add(t, rows.data(), c.velocity.empty() ? nullptr : dq.data());
+  }
+  if (data.rows() == 0)
+    throw Error(in.name() + ": no rows to plot" +
+                (std::isfinite(options.from) || std::isfinite(options.to) ? " in the time window" : ""));
+  return gnuplot_script(data, events, truth, output, options);
+}
+
+}  // namespace momentum::detect
