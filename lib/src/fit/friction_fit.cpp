@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "momentum/core/random.hpp"
 #include "momentum/fit/notes.hpp"
 #include "momentum/fit/polish.hpp"
 #include "momentum/fit/problem.hpp"
@@ -194,18 +195,18 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
   const auto start = std::chrono::steady_clock::now();
   JointFit result;
   result.joint = data.joint;
-  result.model = fit_model(data, gains, options.kind, options, derive_seed(seed, 0), data.joint, progress);
+  result.model = fit_model(data, gains, options.kind, options, core::derive_seed(seed, 0), data.joint, progress);
   result.model_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (options.kind == Kind::lugre && options.compare_static) {
     result.static_model =
-        fit_model(data, gains, Kind::stribeck, options, derive_seed(seed, 1), data.joint, progress);
+        fit_model(data, gains, Kind::stribeck, options, core::derive_seed(seed, 1), data.joint, progress);
     result.static_seconds = result.static_model->seconds;
   }
   if (options.asymmetric) {
     FitOptions symmetric = options;
     symmetric.asymmetric = false;
     result.symmetric_model =
-        fit_model(data, gains, options.kind, symmetric, derive_seed(seed, 2), data.joint, progress);
+        fit_model(data, gains, options.kind, symmetric, core::derive_seed(seed, 2), data.joint, progress);
     result.symmetric_seconds = result.symmetric_model->seconds;
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -258,7 +259,7 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
     for (std::size_t n = next++; n < tasks.size(); n = next++) {
       const auto& task = tasks[n];
       const auto& d = data[task.joint];
-      const std::uint64_t seed = derive_seed(options.global.genetic.seed, static_cast<std::uint64_t>(d.joint));
+      const std::uint64_t seed = core::derive_seed(options.global.genetic.seed, static_cast<std::uint64_t>(d.joint));
       try {
         const auto start = std::chrono::steady_clock::now();
         const bool is_static = task.which == Which::static_model;
@@ -266,7 +267,7 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
         FitOptions own = joint_options[task.joint];
         if (is_symmetric) own.asymmetric = false;
         ModelFit fit = fit_model(d, gains[task.joint], is_static ? Kind::stribeck : own.kind, own,
-                                 derive_seed(seed, is_static ? 1 : is_symmetric ? 2 : 0), d.joint, progress);
+                                 core::derive_seed(seed, is_static ? 1 : is_symmetric ? 2 : 0), d.joint, progress);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         auto& r = results[task.joint];  // each slot written by one task only
         if (is_static) {

@@ -8,7 +8,6 @@
 #include <limits>
 
 #include "momentum/core/random.hpp"
-#include "momentum/fit/genetic.hpp"
 
 namespace momentum::fit {
 
@@ -192,7 +191,7 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
       absorb(dy, shift);
       if (fit.velocity_noise > 0) {
         constexpr int kDraws = 4;
-        core::Random rng(derive_seed(seed, 0x5ee0));
+        core::Random rng(core::derive_seed(seed, 0x5ee0));
         dy.setZero();
         JointSeries noisy;  // the data without positions (the model does not read them)
         noisy.t = data.t;
