@@ -9,6 +9,7 @@
 #include <thread>
 #include <vector>
 
+#include "momentum/core/random.hpp"
 #include "momentum/fit/genetic.hpp"
 
 namespace fit = momentum::fit;
@@ -137,7 +138,7 @@ TEST(Genetic, ReproducibleInParallelThreads) {
     fit::GeneticOptions o;
     o.population = 30;
     o.generations = 30;
-    o.seed = fit::derive_seed(99, static_cast<std::uint64_t>(k));
+    o.seed = momentum::core::derive_seed(99, static_cast<std::uint64_t>(k));
     return fit::minimize_genetic(rastrigin, box, o);
   };
   std::vector<fit::GlobalSummary> sequential, parallel(kProblems);
@@ -150,9 +151,6 @@ TEST(Genetic, ReproducibleInParallelThreads) {
     for (std::size_t i = 0; i < 3; ++i)
       EXPECT_TRUE(same_bits(sequential[k].best[i], parallel[k].best[i])) << "problem " << k;
   }
-  // Derived seeds differ per stream.
-  EXPECT_NE(fit::derive_seed(99, 0), fit::derive_seed(99, 1));
-  EXPECT_NE(fit::derive_seed(99, 0), fit::derive_seed(100, 0));
 }
 
 TEST(Genetic, RejectsInvalidOptions) {

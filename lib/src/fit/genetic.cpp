@@ -55,11 +55,6 @@ bool GeneticOptions::IsValid(std::string* why) const {
   return true;
 }
 
-// The fitter's own mix of seed and stream, kept: its tests' and goldens' fits depend on the draws.
-std::uint64_t derive_seed(std::uint64_t seed, std::uint64_t stream) {
-  return core::splitmix64(core::splitmix64(seed) ^ core::splitmix64(stream + 0x5851F42D4C957F2DULL));
-}
-
 namespace {
 
 double clean(double c) { return std::isnan(c) ? std::numeric_limits<double>::infinity() : c; }

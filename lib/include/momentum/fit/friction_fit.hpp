@@ -210,7 +210,7 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
 
 // Fits every joint of `data` (gains[i] for data[i]) on `threads` threads (0: one per core),
 // the chosen model and the static comparison of each joint as separate tasks; joint i seeded
-// with derive_seed(options.global.genetic.seed, data[i].joint) as fit_joint is, so the result
+// with core::derive_seed(options.global.genetic.seed, data[i].joint) as fit_joint is, so the result
 // equals fit_joint's and does not depend on the thread count or on scheduling. Throws as
 // fit_joint does; exceptions from a worker are rethrown.
 std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,

@@ -8,7 +8,7 @@
 // whose output is implementation-defined), and costs are evaluated in a fixed order. So a run
 // with a fixed seed gives the same bits on every run of the same binary, whatever else runs in
 // parallel. Callers fitting several problems at once derive one seed per problem with
-// derive_seed().
+// core::derive_seed().
 #pragma once
 
 #include <cstdint>
@@ -133,9 +133,5 @@ struct GlobalOptions {
 // outright (out of memory, invalid arguments).
 GlobalSummary minimize_global(const CostFunction& cost, const Bounds& bounds,
                               const GlobalOptions& options = {});
-
-// A seed for the `stream`-th independent problem of a run seeded with `seed` (SplitMix64 of
-// both), so that fitting joints in parallel gives each its own reproducible random stream.
-std::uint64_t derive_seed(std::uint64_t seed, std::uint64_t stream);
 
 }  // namespace momentum::fit
