@@ -156,3 +156,57 @@ TEST(Events, DamageIsAnErrorWithFileAndLine) {
   EXPECT_THROW(EventReader::open(path + ".absent"), momentum::Error);
   std::remove(path.c_str());
 }
+
+TEST(Events, OtherDetectorsFilesReadWithTheirFewColumns) {
+  const std::string path = temp_path("other.csv");
+  // Spreadsheet quotes, kinds in any case, a kind the reader does not know, an empty link.
+  write_text(path, "\"link\",score,\"t_detect\",kind\n2,0.9,10.1,ONSET\n3,0.5,20.2,heartbeat\n,0.1,30.3,onset\n");
+  EXPECT_THROW(EventReader::open(path), momentum::Error);  // not mo-detect's format
+  auto r = EventReader::open(path, {.other_detectors = true});
+  auto e = r->next();
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->link, 2);
+  EXPECT_EQ(e->t_detect, 10.1);
+  EXPECT_EQ(e->id, 0u);
+  EXPECT_TRUE(std::isnan(e->t_onset_estimate));
+  EXPECT_TRUE(e->joints.empty());
+  EXPECT_EQ(r->where(), path + ":2");
+  e = r->next();  // the heartbeat row is skipped
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->link, 0);
+  EXPECT_EQ(e->t_detect, 30.3);
+  EXPECT_EQ(r->where(), path + ":4");
+  EXPECT_FALSE(r->next());
+  write_text(path, "t_detect,joints\n1,2\n");
+  try {
+    EventReader::open(path, {.other_detectors = true});
+    ADD_FAILURE();
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":1: event file needs columns t_detect and link (missing link)");
+  }
+  std::remove(path.c_str());
+}
+
+TEST(Events, DamagedRowsSkippedAndCountedUnlessStrict) {
+  const std::string path = temp_path("skip.csv");
+  write_text(path, "t_detect,link\n10.1,2\nsoon,3\n20.2,3,7\nnan,1\n30,2\n");
+  std::vector<std::string> kinds, messages;
+  auto previous = momentum::set_row_warning_sink([&](std::string_view kind, std::string_view message) {
+    kinds.emplace_back(kind);
+    messages.emplace_back(message);
+  });
+  auto r = EventReader::open(path, {.other_detectors = true, .strict = false});
+  std::vector<double> times;
+  while (auto e = r->next()) times.push_back(e->t_detect);
+  momentum::set_row_warning_sink(previous);
+  EXPECT_EQ(times, std::vector<double>({10.1, 30}));
+  ASSERT_EQ(messages.size(), 3u);
+  EXPECT_EQ(kinds[0], "bad event row");
+  EXPECT_EQ(messages[0], path + ":3: bad t_detect 'soon'; row skipped");
+  EXPECT_EQ(messages[1], path + ":4: 3 fields, header has 2; row skipped");
+  EXPECT_EQ(messages[2], path + ":5: bad t_detect 'nan'; row skipped");
+  r = EventReader::open(path, {.other_detectors = true});
+  r->next();
+  EXPECT_THROW(r->next(), momentum::Error);
+  std::remove(path.c_str());
+}

@@ -129,8 +129,8 @@ TEST(Score, BadRowsAreReportedAndSkippedOrStopStrictMode) {
   set_warning_sink(previous);
   EXPECT_EQ(events.size(), 2u);
   ASSERT_EQ(warnings.size(), 2u);
-  EXPECT_NE(warnings[0].find("bad.csv:3: t_detect 'soon' is not a time"), std::string::npos) << warnings[0];
-  EXPECT_NE(warnings[1].find("bad.csv:4: 3 fields, the header has 2"), std::string::npos) << warnings[1];
+  EXPECT_NE(warnings[0].find("bad.csv:3: bad t_detect 'soon'; row skipped"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[1].find("bad.csv:4: 3 fields, header has 2; row skipped"), std::string::npos) << warnings[1];
   EXPECT_THROW(read_detections(path, true), Error);
   EXPECT_THROW(read_detections(write_temp("nolink.csv", "t_detect,joints\n1,2\n")), Error);
 }

@@ -2,6 +2,7 @@
 
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -36,6 +37,19 @@ std::vector<std::string_view> split_fields(std::string_view line) {
 }
 
 using core::trim;
+
+// A field without blanks around it and without the double quotes a spreadsheet may add.
+std::string_view field(std::string_view text) {
+  text = trim(text);
+  if (text.size() >= 2 && text.front() == '"' && text.back() == '"') text = text.substr(1, text.size() - 2);
+  return text;
+}
+
+bool equal_ignoring_case(std::string_view a, std::string_view b) {
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](char x, char y) {
+    return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+  });
+}
 
 // The contact columns, in order (event_header's documentation).
 constexpr const char* kContactColumns[] = {"class", "rise", "width",  "f",       "fx",  "fy",   "fz", "f_sd",
@@ -133,8 +147,9 @@ void EventWriter::write(const Event& event) {
 
 // ---- reader ----------------------------------------------------------------------------
 
-std::unique_ptr<EventReader> EventReader::open(const std::string& path) {
+std::unique_ptr<EventReader> EventReader::open(const std::string& path, EventReaderOptions options) {
   std::unique_ptr<EventReader> reader(new EventReader());
+  reader->options_ = options;
   const bool from_stdin = path.empty() || path == "-";
   reader->name_ = from_stdin ? "<stdin>" : path;
   reader->file_ = from_stdin ? stdin : std::fopen(path.c_str(), "rb");
@@ -156,7 +171,7 @@ std::unique_ptr<EventReader> EventReader::open(const std::string& path) {
   reader->width_ = fields.size();
   auto find = [&](std::string_view name) {
     for (std::size_t i = 0; i < fields.size(); ++i)
-      if (trim(fields[i]) == name) return i;
+      if (field(fields[i]) == name) return i;
     return npos;
   };
   auto require = [&](std::string_view name) {
@@ -166,12 +181,25 @@ std::unique_ptr<EventReader> EventReader::open(const std::string& path) {
                                                             "' (not an event file of mo-detect?)"));
     return i;
   };
-  reader->c_onset_ = require("t_onset_estimate");
-  reader->c_detect_ = require("t_detect");
-  reader->c_link_ = require("link");
-  reader->c_joints_ = require("joints");
-  reader->c_kind_ = require("kind");
-  reader->c_id_ = require("event");
+  if (options.other_detectors) {
+    reader->c_detect_ = find("t_detect");
+    reader->c_link_ = find("link");
+    if (reader->c_detect_ == npos || reader->c_link_ == npos)
+      throw Error(located(reader->name_, reader->line_,
+                          std::string("event file needs columns t_detect and link (missing ") +
+                              (reader->c_detect_ == npos ? "t_detect" : "link") + ")"));
+    reader->c_onset_ = find("t_onset_estimate");
+    reader->c_joints_ = find("joints");
+    reader->c_kind_ = find("kind");
+    reader->c_id_ = find("event");
+  } else {
+    reader->c_onset_ = require("t_onset_estimate");
+    reader->c_detect_ = require("t_detect");
+    reader->c_link_ = require("link");
+    reader->c_joints_ = require("joints");
+    reader->c_kind_ = require("kind");
+    reader->c_id_ = require("event");
+  }
   reader->c_end_ = find("t_end");
   reader->c_ended_by_ = find("ended_by");
   for (std::size_t j = 1;; ++j) {
@@ -206,7 +234,7 @@ bool EventReader::read_line(std::string& line) {
   return true;
 }
 
-std::string EventReader::where() const { return located(name_, line_, ""); }
+std::string EventReader::where() const { return name_ + ":" + std::to_string(line_); }
 
 std::optional<Event> EventReader::next() {
   std::string line;
@@ -217,19 +245,28 @@ std::optional<Event> EventReader::next() {
       continue;
     }
     if (trim(line).empty()) continue;
-    break;
+    try {
+      if (auto event = parse(line)) return event;
+    } catch (const Error& e) {
+      if (options_.strict) throw;
+      warn_row("bad event row", std::string(e.what()) + "; row skipped");
+    }
   }
+}
+
+std::optional<Event> EventReader::parse(const std::string& line) const {
   auto fail = [&](const std::string& message) -> Error { return Error(located(name_, line_, message)); };
+  const bool other = options_.other_detectors;
   const auto fields = split_fields(line);
   if (fields.size() != width_)
     throw fail(std::to_string(fields.size()) + " fields, header has " + std::to_string(width_));
   auto number = [&](std::size_t column, const char* what) {
-    auto value = stream::parse_double(trim(fields[column]));
+    auto value = stream::parse_double(field(fields[column]));
     if (!value) throw fail(std::string("bad ") + what + " '" + core::printable(fields[column]) + "'");
     return *value;
   };
   auto integer = [&](std::string_view text, const char* what) {
-    text = trim(text);
+    text = field(text);
     long long value = 0;
     auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
     if (ec != std::errc() || end != text.data() + text.size() || text.empty())
@@ -237,20 +274,29 @@ std::optional<Event> EventReader::next() {
     return value;
   };
   Event e;
-  e.t_onset_estimate = number(c_onset_, "t_onset_estimate");
+  if (c_kind_ != npos) {
+    const std::string_view kind = field(fields[c_kind_]);
+    if (equal_ignoring_case(kind, "onset")) e.kind = EventKind::onset;
+    else if (equal_ignoring_case(kind, "end")) e.kind = EventKind::end;
+    else if (other) return std::nullopt;
+    else throw fail("bad kind '" + core::printable(kind) + "' (onset or end)");
+  }
+  e.t_onset_estimate = c_onset_ != npos ? number(c_onset_, "t_onset_estimate") : std::numeric_limits<double>::quiet_NaN();
   e.t_detect = number(c_detect_, "t_detect");
-  const std::string_view kind = trim(fields[c_kind_]);
-  if (kind == "onset") e.kind = EventKind::onset;
-  else if (kind == "end") e.kind = EventKind::end;
-  else throw fail("bad kind '" + core::printable(kind) + "' (onset or end)");
-  const long long id = integer(fields[c_id_], "event");
-  if (id < 1) throw fail("bad event number " + std::to_string(id));
-  e.id = static_cast<std::uint64_t>(id);
-  const long long link = integer(fields[c_link_], "link");
+  if (!std::isfinite(e.t_detect)) throw fail("bad t_detect '" + core::printable(fields[c_detect_]) + "'");
+  if (c_id_ != npos) {
+    const long long id = integer(fields[c_id_], "event");
+    if (id < 1) throw fail("bad event number " + std::to_string(id));
+    e.id = static_cast<std::uint64_t>(id);
+  }
   const long long n = static_cast<long long>(joints_);
-  if (link < 1 || (n > 0 && link > n)) throw fail("link " + std::to_string(link) + " out of 1.." + std::to_string(n));
-  e.link = static_cast<int>(link);
-  std::string_view list = trim(fields[c_joints_]);
+  if (!(other && field(fields[c_link_]).empty())) {
+    const long long link = integer(fields[c_link_], "link");
+    if (link < (other ? 0 : 1) || (n > 0 && link > n))
+      throw fail("link " + std::to_string(link) + " out of 1.." + std::to_string(n));
+    e.link = static_cast<int>(link);
+  }
+  std::string_view list = c_joints_ != npos ? field(fields[c_joints_]) : std::string_view();
   while (!list.empty()) {
     const std::size_t semi = list.find(';');
     const long long j = integer(list.substr(0, semi), "joint in joints");
@@ -259,11 +305,11 @@ std::optional<Event> EventReader::next() {
     if (semi == std::string_view::npos) break;
     list.remove_prefix(semi + 1);
   }
-  if (e.joints.empty()) throw fail("no joints in an event");
+  if (e.joints.empty() && !other) throw fail("no joints in an event");
   e.t_end = std::numeric_limits<double>::quiet_NaN();
-  if (e.kind == EventKind::end && c_end_ != npos && !trim(fields[c_end_]).empty()) e.t_end = number(c_end_, "t_end");
+  if (e.kind == EventKind::end && c_end_ != npos && !field(fields[c_end_]).empty()) e.t_end = number(c_end_, "t_end");
   if (e.kind == EventKind::end && c_ended_by_ != npos) {
-    const std::string_view by = trim(fields[c_ended_by_]);
+    const std::string_view by = field(fields[c_ended_by_]);
     if (by == "release") e.ended_by = EndReason::release;
     else if (by == "next") e.ended_by = EndReason::next;
     else if (by == "eof") e.ended_by = EndReason::eof;
@@ -272,16 +318,16 @@ std::optional<Event> EventReader::next() {
   }
   for (std::size_t c : c_peaks_) e.peaks.push_back(number(c, "peak"));
   if (c_contact_.front() != npos) {
-    const std::string_view event_class = trim(fields[c_contact_.front()]);
+    const std::string_view event_class = field(fields[c_contact_.front()]);
     if (!event_class.empty() && event_class != "contact" && event_class != "collision")
       throw fail("bad class '" + core::printable(event_class) + "' (contact, collision or empty)");
     e.contact.event_class = std::string(event_class);
   }
   for (std::size_t k = 0; k < kContactNumbers; ++k) {
     const std::size_t c = c_contact_[k + 1];
-    if (c != npos && !trim(fields[c]).empty()) *contact_number(e.contact, k) = number(c, kContactColumns[k + 1]);
+    if (c != npos && !field(fields[c]).empty()) *contact_number(e.contact, k) = number(c, kContactColumns[k + 1]);
   }
-  if (c_contact_.back() != npos) e.contact.seen = std::string(trim(fields[c_contact_.back()]));
+  if (c_contact_.back() != npos) e.contact.seen = std::string(field(fields[c_contact_.back()]));
   return e;
 }
 

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "momentum/core/number.hpp"
+#include "momentum/detect/truth.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
 
@@ -42,11 +43,8 @@ bool PlotOptions::IsValid(std::string* why) const {
 }
 
 std::vector<TruthContact> read_truth(const std::string& path) {
-  auto in = stream::Reader::open(path);
-  const std::size_t onset = in->require("t_onset"), end = in->require("t_end"), link = in->require("link");
   std::vector<TruthContact> out;
-  while (const double* row = in->next())
-    out.push_back(TruthContact{row[onset], row[end], static_cast<int>(std::lround(row[link]))});
+  for (const auto& c : read_truth_table(path).contacts) out.push_back(TruthContact{c.t_onset, c.t_end, c.link});
   return out;
 }
 

@@ -2,41 +2,17 @@
 
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <iostream>
 #include <map>
 #include <memory>
 
-#include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
-#include "momentum/stream/format.hpp"
-#include "momentum/stream/reader.hpp"
+#include "momentum/detect/events.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::eval {
 
 namespace {
-
-// A field without blanks around it and without the quotes a spreadsheet may add.
-std::string trim(std::string_view text) {
-  std::string out(core::trim(text));
-  if (out.size() >= 2 && out.front() == '"' && out.back() == '"') out = out.substr(1, out.size() - 2);
-  return out;
-}
-
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> fields = core::split(line);
-  for (auto& field : fields) field = trim(field);
-  if (fields.empty()) fields.emplace_back();  // an empty line is one empty field
-  return fields;
-}
-
-std::string lower(std::string text) {
-  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return text;
-}
 
 std::string ms(double seconds) {
   if (!std::isfinite(seconds)) return "-";
@@ -80,152 +56,42 @@ nlohmann::json stats_json(const DelayStats& s) {
 }  // namespace
 
 std::vector<Detection> read_detections(const std::string& path, bool strict) {
-  const bool from_stdin = path.empty() || path == "-";
-  const std::string name = from_stdin ? "<stdin>" : path;
-  std::ifstream file;
-  if (!from_stdin) {
-    file.open(path);
-    if (!file) throw Error(name + ": cannot open event file");
-  }
-  std::istream& in = from_stdin ? std::cin : file;
-
+  auto reader = detect::EventReader::open(path, {.other_detectors = true, .strict = strict});
   std::vector<Detection> detections;
-  std::vector<std::string> header;
-  std::size_t c_detect = 0, c_link = 0;
-  std::optional<std::size_t> c_onset, c_kind, c_event, c_class;
-  std::vector<std::optional<std::size_t>> c_contact;  // f_peak, px, py, pz, width
-  std::vector<std::size_t> c_peaks;
   // What identification found, from the event's last row read (the end row when there is one).
-  auto read_contact = [&](const std::vector<std::string>& fields, Detection& d) {
-    if (c_class) d.event_class = trim(fields[*c_class]);
-    double* targets[] = {&d.peak_force, &d.point.x(), &d.point.y(), &d.point.z(), &d.width};
-    for (std::size_t k = 0; k < c_contact.size(); ++k) {
-      *targets[k] = NAN;
-      if (const auto c = c_contact[k])
-        if (const auto v = stream::parse_double(trim(fields[*c]))) *targets[k] = *v;
-    }
-    d.peaks.clear();
-    for (std::size_t c : c_peaks) {
-      const auto v = stream::parse_double(trim(fields[c]));
-      d.peaks.push_back(v ? *v : NAN);
-    }
+  auto read_contact = [](const detect::Event& e, Detection& d) {
+    d.event_class = e.contact.event_class;
+    d.peak_force = e.contact.peak_force;
+    d.point = {e.contact.px, e.contact.py, e.contact.pz};
+    d.width = e.contact.width;
+    d.peaks = e.peaks;
   };
-  std::map<std::string, std::size_t> event_index;  // event number -> index in detections
-  std::string line;
-  std::uint64_t number = 0;
-  auto reject = [&](const std::string& message) {
-    if (strict) throw Error(located(name, number, message));
-    warn_row("bad event row", located(name, number, message + "; row skipped"));
-  };
-  while (std::getline(in, line)) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (trim(line).empty() || line[0] == '#') continue;
-    std::vector<std::string> fields = split_csv(line);
-    if (header.empty()) {
-      header = fields;
-      auto find = [&](const char* column) -> std::optional<std::size_t> {
-        for (std::size_t k = 0; k < header.size(); ++k)
-          if (header[k] == column) return k;
-        return std::nullopt;
-      };
-      const auto d = find("t_detect"), l = find("link");
-      if (!d || !l)
-        throw Error(located(name, number, std::string("event file needs columns t_detect and link (missing ") +
-                                              (d ? "link" : "t_detect") + ")"));
-      c_detect = *d, c_link = *l;
-      c_onset = find("t_onset_estimate");
-      c_kind = find("kind");
-      c_event = find("event");
-      c_class = find("class");
-      for (const char* column : {"f_peak", "px", "py", "pz", "width"}) c_contact.push_back(find(column));
-      for (int j = 1; find(("peak" + std::to_string(j)).c_str()); ++j) c_peaks.push_back(*find(("peak" + std::to_string(j)).c_str()));
-      continue;
-    }
-    if (fields.size() != header.size()) {
-      reject(std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
-      continue;
-    }
-    const std::string kind = c_kind ? lower(fields[*c_kind]) : "onset";
-    if (kind == "end" && c_event) {
+  std::map<std::uint64_t, std::size_t> event_index;  // event number -> index in detections
+  while (const auto e = reader->next()) {
+    if (e->kind == detect::EventKind::end) {
       // The end row completes its event: the final link, over every joint that fired.
-      const auto it = event_index.find(fields[*c_event]);
-      const auto link = stream::parse_double(fields[c_link]);
-      if (it != event_index.end() && link && *link == std::floor(*link) && *link >= 0 && *link <= 1e6) {
-        detections[it->second].final_link = static_cast<int>(*link);
-        read_contact(fields, detections[it->second]);
+      const auto it = e->id != 0 ? event_index.find(e->id) : event_index.end();
+      if (it != event_index.end() && e->link != 0) {
+        detections[it->second].final_link = e->link;
+        read_contact(*e, detections[it->second]);
       }
       continue;
     }
-    if (kind != "onset") continue;
-    if (c_event && event_index.count(fields[*c_event])) continue;  // a repeated row of an event
+    if (e->id != 0 && event_index.count(e->id)) continue;  // a repeated row of an event
     Detection d;
-    d.where = name + ":" + std::to_string(number);
-    const auto t = stream::parse_double(fields[c_detect]);
-    if (!t || !std::isfinite(*t)) {
-      reject("t_detect '" + core::printable(fields[c_detect]) + "' is not a time");
-      continue;
-    }
-    d.t_detect = *t;
-    if (!fields[c_link].empty()) {
-      const auto link = stream::parse_double(fields[c_link]);
-      if (!link || *link != std::floor(*link) || *link < 0 || *link > 1e6) {
-        reject("link '" + core::printable(fields[c_link]) + "' is not a link number");
-        continue;
-      }
-      d.link = static_cast<int>(*link);
-    }
+    d.where = reader->where();
+    d.t_detect = e->t_detect;
+    d.link = e->link;
     d.final_link = d.link;
-    if (c_onset) {
-      const auto onset = stream::parse_double(fields[*c_onset]);
-      if (onset) d.t_onset_estimate = *onset;
-    }
-    read_contact(fields, d);
-    if (c_event) event_index[fields[*c_event]] = detections.size();
+    d.t_onset_estimate = e->t_onset_estimate;
+    read_contact(*e, d);
+    if (e->id != 0) event_index[e->id] = detections.size();
     detections.push_back(d);
   }
-  if (header.empty()) throw Error(name + ": event file has no header (t_detect,link,...)");
   return detections;
 }
 
-Truth read_truth(const std::string& path) {
-  auto reader = stream::Reader::open(path);
-  Truth truth;
-  for (const auto& comment : reader->leading_comments()) {
-    const std::string text = trim(comment);
-    const std::string key = "duration:";
-    if (text.rfind(key, 0) == 0) {
-      const auto value = stream::parse_double(trim(text.substr(key.size())));
-      if (value && *value > 0) truth.duration = *value;
-    }
-  }
-  const std::size_t c_onset = reader->require("t_onset"), c_end = reader->require("t_end"),
-                    c_link = reader->require("link");
-  const auto c_clamp = reader->find("clamp"), c_force = reader->find("f_peak");
-  const auto c_px = reader->find("px"), c_py = reader->find("py"), c_pz = reader->find("pz");
-  std::vector<std::size_t> c_torques;
-  for (int j = 1; reader->find("tau_peak" + std::to_string(j)); ++j) c_torques.push_back(*reader->find("tau_peak" + std::to_string(j)));
-  while (const double* row = reader->next()) {
-    TruthContact c;
-    c.t_onset = row[c_onset];
-    c.t_end = row[c_end];
-    const double link = row[c_link];
-    if (!(c.t_end >= c.t_onset))
-      throw Error(reader->where() + ": contact ends (" + std::to_string(c.t_end) + ") before its onset");
-    if (!(link >= 1 && link == std::floor(link) && link <= 1e6))
-      throw Error(reader->where() + ": link must be a positive whole number");
-    c.link = static_cast<int>(link);
-    if (c_clamp) c.clamp = row[*c_clamp] != 0;
-    if (c_force) c.peak_force = row[*c_force];
-    if (c_px && c_py && c_pz) c.point = {row[*c_px], row[*c_py], row[*c_pz]};
-    for (std::size_t k = 0; k < c_torques.size(); ++k)
-      c.peak_torque = k == 0 ? std::abs(row[c_torques[k]]) : std::max(c.peak_torque, std::abs(row[c_torques[k]]));
-    truth.contacts.push_back(c);
-  }
-  std::stable_sort(truth.contacts.begin(), truth.contacts.end(),
-                   [](const TruthContact& a, const TruthContact& b) { return a.t_onset < b.t_onset; });
-  return truth;
-}
+Truth read_truth(const std::string& path) { return detect::read_truth_table(path); }
 
 bool ScoreOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(window) && window > 0)) {

@@ -106,19 +106,35 @@ class EventWriter {
   std::uint64_t rows_ = 0;
 };
 
+struct EventReaderOptions {
+  // Also read the event files of other detectors (mo-eval): only t_detect and link are
+  // required. Without t_onset_estimate it reads NaN; without joints, no joints; without kind,
+  // every row is an onset; without event, every event number is 0 (unknown). A kind other
+  // than onset or end (any case) skips the row; an empty link reads 0 (unknown) and link 0 is
+  // allowed. Off: mo-detect's format, all of its columns required.
+  bool other_detectors = false;
+  // A malformed row throws momentum::Error `file:line: message`. Off: it is reported through
+  // momentum::warn_row (kind "bad event row", `file:line: message; row skipped`), counted by
+  // the tool's rows policy, and skipped.
+  bool strict = true;
+};
+
 // Reads an event file row by row. Columns are found by name, so files with extra columns (a
-// later version) still read; peak<j> columns give the joint count.
+// later version) still read; peak<j> columns give the joint count. Fields may carry blanks
+// around them and the double quotes a spreadsheet adds.
 class EventReader {
  public:
   // Opens `path` ("-": stdin) and reads its header. Throws momentum::Error `file:line: message`
-  // when the file cannot be opened, or the header lacks one of t_onset_estimate, t_detect,
-  // link, joints, kind, event.
-  static std::unique_ptr<EventReader> open(const std::string& path);
+  // when the file cannot be opened, has no header, or the header lacks one of
+  // t_onset_estimate, t_detect, link, joints, kind, event (t_detect, link with
+  // options.other_detectors).
+  static std::unique_ptr<EventReader> open(const std::string& path, EventReaderOptions options = {});
   ~EventReader();
 
   // The next row, or nullopt at end of file. A malformed row (wrong field count, bad number,
-  // unknown kind, joint out of 1..n) throws momentum::Error naming file and line: an event
-  // file is written by a program, so damage is not skipped silently.
+  // t_detect not finite, unknown kind, joint or link out of 1..n) throws momentum::Error naming
+  // file and line: an event file is written by a program, so damage is not skipped silently
+  // (unless options.strict is off).
   std::optional<Event> next();
 
   std::size_t joints() const { return joints_; }
@@ -129,6 +145,10 @@ class EventReader {
  private:
   EventReader() = default;
   bool read_line(std::string& line);
+  // The event on `line`; nullopt for a row of another kind (other_detectors). Throws
+  // momentum::Error `file:line: message` when it is malformed.
+  std::optional<Event> parse(const std::string& line) const;
+  EventReaderOptions options_;
   std::FILE* file_ = nullptr;
   bool owns_ = false;
   std::string name_;
@@ -136,7 +156,8 @@ class EventReader {
   std::size_t joints_ = 0;
   std::size_t width_ = 0;
   std::vector<std::string> comments_;
-  // Column index of each field (or npos when absent).
+  // Column index of each field (or npos when absent: the optional ones, and with
+  // other_detectors all but t_detect and link).
   std::size_t c_onset_ = 0, c_detect_ = 0, c_link_ = 0, c_joints_ = 0, c_kind_ = 0, c_id_ = 0;
   std::size_t c_end_ = 0, c_ended_by_ = 0;
   std::vector<std::size_t> c_peaks_;

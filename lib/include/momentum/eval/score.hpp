@@ -19,8 +19,10 @@
 
 #include <Eigen/Core>
 
-#include "momentum/contact/classify.hpp"
 #include <nlohmann/json.hpp>
+
+#include "momentum/contact/classify.hpp"
+#include "momentum/detect/truth.hpp"
 
 namespace momentum::eval {
 
@@ -40,36 +42,22 @@ struct Detection {
   std::vector<double> peaks;     // per joint, Nm
 };
 
-// One true contact, from mo-sim's --truth file.
-struct TruthContact {
-  double t_onset = 0, t_end = 0;  // s
-  int link = 0;                   // 1..n
-  bool clamp = false;             // an obstacle met (a collision), else a push (a contact)
-  double peak_force = NAN;        // N, NaN when the file has no f_peak column
-  Eigen::Vector3d point{NAN, NAN, NAN};  // contact point in its link's frame (px, py, pz), m
-  // Largest |tau_peak<j>| over the joints, Nm (NaN without such columns): how hard the contact
-  // could move any residual; a contact far below the thresholds is undetectable by design.
-  double peak_torque = NAN;
-};
+// The truth of a campaign (mo-sim --truth): its contacts in onset order and its duration.
+using TruthContact = detect::TrueContact;
+using Truth = detect::TruthTable;
 
-struct Truth {
-  std::vector<TruthContact> contacts;       // in onset order
-  std::optional<double> duration;           // s, from the "# duration: S" comment when present
-};
-
-// Reads an event file (a path, or "-" for stdin). CSV with a header naming at least t_detect
-// and link; optional t_onset_estimate; other columns are ignored. mo-detect's full format is
-// understood: each onset row ("kind" = onset) is a detection, and the end row of the same
-// "event" number, when present, gives its final link (rows of other kinds are skipped);
-// without a kind column, only the first row of each "event" number counts. Lines starting with '#' and blank
-// lines are skipped. A row with a bad t_detect or link is reported through momentum::warn and
-// skipped (strict: momentum::Error `file:line: message`). Throws momentum::Error when the file
-// cannot be read or the header lacks t_detect or link.
+// Reads an event file (a path, or "-" for stdin) with detect::EventReader, open to other
+// detectors' files: a header naming at least t_detect and link; optional t_onset_estimate and
+// the rest of mo-detect's columns. Each onset row is a detection (without a kind column: every
+// row; rows of other kinds are skipped), and the end row of the same "event" number, when
+// present, gives its final link and identification; without an event column every row is its
+// own event, with one, only the first onset row of each number counts. A malformed row is
+// reported through momentum::warn_row (`file:line: message; row skipped`) and skipped
+// (strict: momentum::Error `file:line: message`). Throws momentum::Error when the file cannot
+// be read or the header lacks t_detect or link.
 std::vector<Detection> read_detections(const std::string& path, bool strict = false);
 
-// Reads mo-sim's truth file (a sample stream: t_onset, t_end, link required; clamp, f_peak,
-// tau_peak<j> optional) and its "# duration: S" comment. Throws momentum::Error when the file cannot be
-// read or a required column is missing; a contact whose t_end precedes its t_onset is an error.
+// detect::read_truth_table: mo-sim's truth file. Throws what it throws.
 Truth read_truth(const std::string& path);
 
 struct ScoreOptions {
