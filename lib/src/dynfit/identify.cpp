@@ -538,12 +538,11 @@ void Identifier::add_to_copy(Identifier& copy, std::size_t which, std::uint64_t 
                              double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
                              Eigen::VectorXd& noisy) const {
   noisy = dq;
-  for (int j = 0; j < n_; ++j) {
-    // The key as mo-dynfit has always mixed it (its goldens' standard errors depend on the draws).
-    const std::uint64_t key =
-        core::splitmix64(core::splitmix64(core::splitmix64(options_.seed) ^ which) ^ index) ^ static_cast<std::uint64_t>(j);
-    noisy[j] += noise[j] * core::normal_at(key);
-  }
+  // One independent stream per copy, one seed per sample in it, one key per joint: the same
+  // draw whenever (seed, copy, sample, joint) is the same, however the samples arrive.
+  const std::uint64_t sample_seed = core::derive_seed(core::derive_seed(options_.seed, which), index);
+  for (int j = 0; j < n_; ++j)
+    noisy[j] += noise[j] * core::normal_at(core::derive_seed(sample_seed, static_cast<std::uint64_t>(j)));
   copy.add_sample(t, q, noisy, tau_m);
 }
 
