@@ -271,9 +271,15 @@ class Identifier::ProbeFeed {
     std::unique_lock<std::mutex> lock(mutex_);
     done_.wait(lock, [&] { return queue_.size() < kQueued; });
     queue_.push_back(std::move(filling_));
+    // A batch the probe is done with, its buffers kept: fresh megabytes for every batch cost
+    // more in page faults than the probe's work on them.
+    filling_ = Batch{};
+    if (!spare_.empty()) {
+      filling_ = std::move(spare_.back());
+      spare_.pop_back();
+    }
     lock.unlock();
     ready_.notify_one();
-    filling_ = Batch{};
     filling_.restart.reserve(kBatch);
     filling_.values.reserve(kBatch * static_cast<std::size_t>(1 + 3 * n_));
   }
@@ -316,9 +322,13 @@ class Identifier::ProbeFeed {
           error_ = std::current_exception();
         }
       }
+      batch.restart.clear();
+      batch.values.clear();
+      batch.regressors.clear();
       {
         std::lock_guard<std::mutex> lock(mutex_);
         busy_ = false;
+        if (spare_.size() < kQueued) spare_.push_back(std::move(batch));
       }
       done_.notify_all();
     }
@@ -329,6 +339,7 @@ class Identifier::ProbeFeed {
   std::mutex mutex_;
   std::condition_variable ready_, done_;
   std::deque<Batch> queue_;
+  std::vector<Batch> spare_;  // processed batches, emptied, for hand_over() to fill again
   bool busy_ = false, stop_ = false;
   std::exception_ptr error_;
   std::thread worker_;  // last: starts once everything above is in place
