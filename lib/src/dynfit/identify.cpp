@@ -197,6 +197,9 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
   empty.c.setZero(columns_);
   fit_joint_.assign(static_cast<std::size_t>(n_), empty);
   held_joint_.assign(static_cast<std::size_t>(n_), empty);
+  block_joint_.assign(static_cast<std::size_t>(n_), empty);
+  fit_rows_.resize(static_cast<std::size_t>(n_));
+  held_rows_.resize(static_cast<std::size_t>(n_));
   block_length_ = options_.block;
   count_from_.assign(static_cast<std::size_t>(n_), std::numeric_limits<double>::infinity());
   slow_.assign(static_cast<std::size_t>(n_), false);
@@ -226,16 +229,22 @@ class Identifier::ProbeFeed {
     ready_.notify_all();
     worker_.join();
   }
-  void add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m) {
-    filling_.restart.push_back(0);
+  // Yp and Yb: the main fit's regressor at this sample (n x 10 n each, column-major), or null.
+  void add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
+           const double* Yp, const double* Yb, Eigen::Index size) {
+    filling_.restart.push_back(Yp ? kSampleWithRegressor : kSample);
     filling_.values.push_back(t);
     filling_.values.insert(filling_.values.end(), q.data(), q.data() + n_);
     filling_.values.insert(filling_.values.end(), dq.data(), dq.data() + n_);
     filling_.values.insert(filling_.values.end(), tau_m.data(), tau_m.data() + n_);
+    if (Yp) {
+      filling_.regressors.insert(filling_.regressors.end(), Yp, Yp + size);
+      filling_.regressors.insert(filling_.regressors.end(), Yb, Yb + size);
+    }
     if (filling_.restart.size() >= kBatch) hand_over();
   }
   void restart() {
-    filling_.restart.push_back(1);
+    filling_.restart.push_back(kRestart);
     if (filling_.restart.size() >= kBatch) hand_over();
   }
   // Returns when the probe has seen every sample; rethrows what it threw.
@@ -247,25 +256,36 @@ class Identifier::ProbeFeed {
   }
 
  private:
-  static constexpr std::size_t kBatch = 4096;
+  // About a second of a 1 kHz log: with the regressors of its counted rows (2 n x 10 n values
+  // each, 200 a second at 1 kHz and K = 10), a batch of the 6-joint arm holds about 1.2 MB.
+  static constexpr std::size_t kBatch = 1024;
   static constexpr std::size_t kQueued = 4;  // batches waiting at most (bounded memory)
+  static constexpr std::uint8_t kSample = 0, kRestart = 1, kSampleWithRegressor = 2;
   struct Batch {
-    std::vector<std::uint8_t> restart;  // per entry: 1 a restart, 0 a sample (1 + 3 n values)
+    std::vector<std::uint8_t> restart;  // per entry: kRestart, or a sample (1 + 3 n values)
     std::vector<double> values;
+    std::vector<double> regressors;     // Y_p then Y_b of each kSampleWithRegressor entry
   };
   void hand_over() {
     if (filling_.restart.empty()) return;
     std::unique_lock<std::mutex> lock(mutex_);
     done_.wait(lock, [&] { return queue_.size() < kQueued; });
     queue_.push_back(std::move(filling_));
+    // A batch the probe is done with, its buffers kept: fresh megabytes for every batch cost
+    // more in page faults than the probe's work on them.
+    filling_ = Batch{};
+    if (!spare_.empty()) {
+      filling_ = std::move(spare_.back());
+      spare_.pop_back();
+    }
     lock.unlock();
     ready_.notify_one();
-    filling_ = Batch{};
     filling_.restart.reserve(kBatch);
     filling_.values.reserve(kBatch * static_cast<std::size_t>(1 + 3 * n_));
   }
   void run() {
     Eigen::VectorXd q(n_), dq(n_), tau(n_);
+    const Eigen::Index size = static_cast<Eigen::Index>(n_) * kBodyParameters * n_;
     for (;;) {
       Batch batch;
       {
@@ -280,8 +300,9 @@ class Identifier::ProbeFeed {
       if (!error_) {
         try {
           const double* v = batch.values.data();
-          for (const std::uint8_t restart : batch.restart) {
-            if (restart) {
+          const double* y = batch.regressors.data();
+          for (const std::uint8_t kind : batch.restart) {
+            if (kind == kRestart) {
               probe_.restart_sample();
               continue;
             }
@@ -289,16 +310,25 @@ class Identifier::ProbeFeed {
             for (int j = 0; j < n_; ++j) q[j] = *v++;
             for (int j = 0; j < n_; ++j) dq[j] = *v++;
             for (int j = 0; j < n_; ++j) tau[j] = *v++;
-            probe_.add_sample(t, q, dq, tau);
+            if (kind == kSampleWithRegressor) {
+              probe_.add_sample(t, q, dq, tau, y, y + size);
+              y += 2 * size;
+            } else {
+              probe_.add_sample(t, q, dq, tau);
+            }
           }
         } catch (...) {
           std::lock_guard<std::mutex> lock(mutex_);
           error_ = std::current_exception();
         }
       }
+      batch.restart.clear();
+      batch.values.clear();
+      batch.regressors.clear();
       {
         std::lock_guard<std::mutex> lock(mutex_);
         busy_ = false;
+        if (spare_.size() < kQueued) spare_.push_back(std::move(batch));
       }
       done_.notify_all();
     }
@@ -309,6 +339,7 @@ class Identifier::ProbeFeed {
   std::mutex mutex_;
   std::condition_variable ready_, done_;
   std::deque<Batch> queue_;
+  std::vector<Batch> spare_;  // processed batches, emptied, for hand_over() to fill again
   bool busy_ = false, stop_ = false;
   std::exception_ptr error_;
   std::thread worker_;  // last: starts once everything above is in place
@@ -317,12 +348,14 @@ class Identifier::ProbeFeed {
 Identifier::~Identifier() = default;
 
 void Identifier::probe_add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
-                           const Eigen::VectorXd& tau_m) {
+                           const Eigen::VectorXd& tau_m, bool regressed) {
   if (probe_reference_) return;
+  const double* Yp = regressed ? Yp_.data() : nullptr;
+  const double* Yb = regressed ? Yb_.data() : nullptr;
   if (probe_feed_) {
-    probe_feed_->add(t, q, dq, tau_m);
+    probe_feed_->add(t, q, dq, tau_m, Yp, Yb, Yp_.size());
   } else if (friction_probe_) {
-    friction_probe_->add_sample(t, q, dq, tau_m);
+    friction_probe_->add_sample(t, q, dq, tau_m, Yp, Yb);
   }
 }
 
@@ -388,6 +421,10 @@ std::uint64_t Identifier::samples_held_out() const {
   return n_ ? total / static_cast<std::uint64_t>(n_) : 0;
 }
 
+namespace {
+constexpr int kRows = 128;  // rows per batch of a joint's normal equations
+}  // namespace
+
 void Identifier::begin_block() {
   if (static_cast<int>(blocks_.size()) == kMaxBlocks) {
     std::vector<Block> merged;
@@ -401,31 +438,64 @@ void Identifier::begin_block() {
   block_start_ = t_log_;
 }
 
+void Identifier::flush_rows(std::size_t joint, bool held_out) const {
+  RowBuffer& buffer = (held_out ? held_rows_ : fit_rows_)[joint];
+  if (buffer.rows == 0) return;
+  JointStats& sums = (held_out ? held_joint_ : block_joint_)[joint];
+  const Eigen::Index m = columns_ - buffer.first;
+  const auto Z = buffer.Z.topRows(buffer.rows).rightCols(m);
+  const auto e = buffer.e.head(buffer.rows);
+  // The lower triangle of Z^T Z, over the columns any of the rows has nonzero.
+  sums.G.bottomRightCorner(m, m).selfadjointView<Eigen::Lower>().rankUpdate(Z.transpose());
+  sums.c.tail(m).noalias() += Z.transpose() * e;
+  sums.s += e.squaredNorm();
+  buffer.rows = 0;
+  buffer.first = columns_;
+}
+
+void Identifier::flush() const {
+  for (std::size_t i = 0; i < held_rows_.size(); ++i) flush_rows(i, true);
+  for (std::size_t i = 0; i < fit_rows_.size(); ++i) flush_rows(i, false);
+  if (blocks_.empty()) return;
+  Block& block = blocks_.back();
+  for (std::size_t i = 0; i < block_joint_.size(); ++i) {
+    JointStats& sums = block_joint_[i];
+    if (sums.s == 0 && sums.c.isZero(0.0) && sums.G.isZero(0.0)) continue;
+    block.A += sums.G;
+    block.b += sums.c;
+    fit_joint_[i].G += sums.G;
+    fit_joint_[i].c += sums.c;
+    fit_joint_[i].s += sums.s;
+    sums.G.setZero();
+    sums.c.setZero();
+    sums.s = 0;
+  }
+}
+
 void Identifier::accumulate(const Eigen::MatrixXd& Z, const Eigen::VectorXd& e, bool held_out) {
   auto& joints = held_out ? held_joint_ : fit_joint_;
-  Block* block = nullptr;
-  if (!held_out) {
-    if (blocks_.empty() || t_log_ - block_start_ >= block_length_) begin_block();
-    block = &blocks_.back();
+  if (!held_out && (blocks_.empty() || t_log_ - block_start_ >= block_length_)) {
+    flush();  // the rows so far belong to the block that ends here
+    begin_block();
   }
-  const Eigen::Index m = Z.cols();
+  auto& buffers = held_out ? held_rows_ : fit_rows_;
   for (int i = 0; i < n_; ++i) {
     if (Z.row(i).isZero(0.0) && e[i] == 0.0) continue;  // a row that does not count
-    JointStats& s = joints[static_cast<std::size_t>(i)];
-    // The lower triangles of the row's outer product, added to the joint's and the block's
-    // normal equations at once, skipping the zero entries (each row has 2 of the 2 n friction
-    // columns): a hand-written rank-1 update costs a tenth of Eigen's general one at this size.
-    row_ = Z.row(i).transpose();
-    for (Eigen::Index c = 0; c < m; ++c) {
-      const double zc = row_[c];
-      if (zc == 0.0) continue;
-      s.G.col(c).tail(m - c).noalias() += zc * row_.tail(m - c);
-      if (block) block->A.col(c).tail(m - c).noalias() += zc * row_.tail(m - c);
+    const auto j = static_cast<std::size_t>(i);
+    RowBuffer& buffer = buffers[j];
+    if (buffer.Z.rows() == 0) {
+      buffer.Z.setZero(kRows, columns_);
+      buffer.e.setZero(kRows);
+      buffer.first = columns_;
     }
-    s.c.noalias() += row_ * e[i];
-    s.s += e[i] * e[i];
-    ++s.count;
-    if (block) block->b.noalias() += row_ * e[i];
+    buffer.Z.row(buffer.rows) = Z.row(i);
+    buffer.e[buffer.rows] = e[i];
+    Eigen::Index first = 0;
+    while (first < buffer.first && Z(i, first) == 0.0) ++first;
+    buffer.first = std::min(buffer.first, first);
+    ++buffer.rows;
+    ++joints[j].count;
+    if (buffer.rows == kRows) flush_rows(j, held_out);
   }
 }
 
@@ -461,6 +531,7 @@ std::unique_ptr<Identifier> Identifier::snapshot() const {
   IdentifyOptions options = options_;
   options.friction_probe = false;
   options.velocity_noise_draws = 0;
+  flush();
   auto copy = std::make_unique<Identifier>(model_, options);
   copy->blocks_ = blocks_;
   copy->block_start_ = block_start_;
@@ -478,12 +549,11 @@ void Identifier::add_to_copy(Identifier& copy, std::size_t which, std::uint64_t 
                              double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
                              Eigen::VectorXd& noisy) const {
   noisy = dq;
-  for (int j = 0; j < n_; ++j) {
-    // The key as mo-dynfit has always mixed it (its goldens' standard errors depend on the draws).
-    const std::uint64_t key =
-        core::splitmix64(core::splitmix64(core::splitmix64(options_.seed) ^ which) ^ index) ^ static_cast<std::uint64_t>(j);
-    noisy[j] += noise[j] * core::normal_at(key);
-  }
+  // One independent stream per copy, one seed per sample in it, one key per joint: the same
+  // draw whenever (seed, copy, sample, joint) is the same, however the samples arrive.
+  const std::uint64_t sample_seed = core::derive_seed(core::derive_seed(options_.seed, which), index);
+  for (int j = 0; j < n_; ++j)
+    noisy[j] += noise[j] * core::normal_at(core::derive_seed(sample_seed, static_cast<std::uint64_t>(j)));
   copy.add_sample(t, q, noisy, tau_m);
 }
 
@@ -527,11 +597,33 @@ const observer::FilterCoefficients& Identifier::coefficients(const observer::Gai
 }
 
 void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
-                            const Eigen::VectorXd& tau_m) {
+                            const Eigen::VectorXd& tau_m, const double* Yp,
+                            const double* Yb) {
+  regressed_ = false;
+  fit_sample(t, q, dq, tau_m, Yp, Yb);
+  // The probe after this fit, so that it can take the regressor this fit evaluated (the same
+  // function of the same q and dq: the probe's results are those of its own evaluation).
+  probe_add(t, q, dq, tau_m, regressed_);
+}
+
+void Identifier::regressor(const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
+                           const double* Yp, const double* Yb) {
+  if (Yp && Yb) {
+    const Eigen::Index p = kBodyParameters * n_;
+    Yp_ = Eigen::Map<const Eigen::MatrixXd>(Yp, n_, p);
+    Yb_ = Eigen::Map<const Eigen::MatrixXd>(Yb, n_, p);
+  } else {
+    momentum_regressor(model_, data_, q, dq, Yp_, Yb_);
+  }
+  regressed_ = true;
+}
+
+void Identifier::fit_sample(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq,
+                            const Eigen::VectorXd& tau_m, const double* Yp,
+                            const double* Yb) {
   if (!std::isfinite(t) || !q.allFinite() || !dq.allFinite() || !tau_m.allFinite()) {
     ++skipped_;
     started_ = false;
-    probe_add(t, q, dq, tau_m);
     return;
   }
   double dt = 0;
@@ -540,7 +632,6 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     if (!(dt > 0)) {
       ++skipped_;
       started_ = false;
-      probe_add(t, q, dq, tau_m);
       return;
     }
     t_log_ += dt;  // time goes on through gaps and bad rows: held-out segments stay aligned
@@ -553,7 +644,6 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   }
   have_time_ = true;
   t_previous_ = t;
-  probe_add(t, q, dq, tau_m);
   for (int j = 0; j < n_; ++j) {
     friction_(j, 0) = std::tanh(dq[j] / options_.coulomb_speed);
     friction_(j, 1) = dq[j];
@@ -561,7 +651,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   y_ = tau_m;
   pk_ = model_.rotor_inertia.cwiseProduct(dq);
   if (!started_) {
-    momentum_regressor(model_, data_, q, dq, Yp_, Yb_);
+    regressor(q, dq, Yp, Yb);
     Fp_ = Yp_;
     Fb_ = Yb_;
     Ff_ = friction_;
@@ -651,7 +741,7 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
   }
   const double counted_dt = since_regression_;
   since_regression_ = 0;
-  momentum_regressor(model_, data_, q, dq, Yp_, Yb_);
+  regressor(q, dq, Yp, Yb);
   const observer::FilterCoefficients& cr = coefficients(gains, counted_dt, regression_coefficients_);
   advance(cr, Fp_, Yp_prev_, Yp_);
   advance(cr, Fb_, Yb_prev_, Yb_);
@@ -682,10 +772,13 @@ void Identifier::add_sample(double t, const Eigen::VectorXd& q, const Eigen::Vec
     any_counted = any_counted || t >= count_from_[i];
   }
   if (!any_counted) return;
-  const Eigen::MatrixXd W = k * (Yp_ - g * Fp_) + g * Fb_;
-  const Eigen::VectorXd y = g * Fy_ - k * (pk_ - g * Fpk_);
-  Eigen::VectorXd e = y - W * theta_nominal_;
-  Eigen::MatrixXd Z = Eigen::MatrixXd::Zero(n_, columns_);
+  Eigen::MatrixXd& W = W_;
+  W.noalias() = k * (Yp_ - g * Fp_) + g * Fb_;
+  Eigen::VectorXd& e = e_;
+  e.noalias() = g * Fy_ - k * (pk_ - g * Fpk_);
+  e.noalias() -= W * theta_nominal_;
+  Eigen::MatrixXd& Z = Z_;
+  Z.setZero(n_, columns_);
   for (int j = 0; j < fitted_; ++j) Z.col(j) = W.col(selected_[static_cast<std::size_t>(j)]);
   if (options_.fit_friction) {
     for (int i = 0; i < n_; ++i) {
@@ -772,6 +865,7 @@ IdentifySummary Identifier::solve(const Eigen::VectorXd* current) const {
 
 IdentifySummary Identifier::solve_one(const Eigen::VectorXd* current) const {
   const int n = n_, pi = fitted_, pf = columns_ - fitted_, p = kBodyParameters * n;
+  flush();
   if (samples_fit() == 0) {
     throw Error("dynfit: no sample to fit (the logs are shorter than the filter's settling time "
                 "or every sample was held out)");

@@ -223,8 +223,31 @@ class Identifier {
   };
   void begin_block();
   void accumulate(const Eigen::MatrixXd& Z, const Eigen::VectorXd& e, bool held_out);
+  // Rows wait in per-joint buffers and are added in batches (a rank-k update runs several times
+  // faster than k rank-1 updates); a block's fitting rows go to its own per-joint sums first,
+  // which are folded into the block and the joints' totals when it closes. flush() adds every
+  // waiting row (and closes the block's sums, the block staying open): before any of the sums
+  // is read. The batches depend on the samples alone, so the results do too.
+  struct RowBuffer {
+    Eigen::MatrixXd Z;  // kRows x columns_
+    Eigen::VectorXd e;
+    int rows = 0;
+    Eigen::Index first = 0;  // the first column any buffered row has nonzero
+  };
+  void flush_rows(std::size_t joint, bool held_out) const;
+  void flush() const;
+  mutable std::vector<RowBuffer> fit_rows_, held_rows_;
+  mutable std::vector<JointStats> block_joint_;
   // The fit itself, without the velocity-noise copies.
-  void add_sample(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m);
+  // Yp, Yb: the regressor at (q, dq) as another fit evaluated it (n x 10 n each, column-major),
+  // or null to evaluate it here where it is needed; then the friction probe is fed the sample.
+  void add_sample(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
+                  const double* Yp = nullptr, const double* Yb = nullptr);
+  void fit_sample(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
+                  const double* Yp, const double* Yb);
+  // Yp_, Yb_ at (q, dq): copied from Yp, Yb when given, else evaluated; sets regressed_.
+  void regressor(const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const double* Yp, const double* Yb);
+  bool regressed_ = false;  // fit_sample() evaluated Yp_, Yb_ at its sample
   void restart_sample();
   IdentifySummary solve_one(const Eigen::VectorXd* current) const;
   // Velocity-noise copies: the first velocity_noise_samples samples are kept; from them the
@@ -263,7 +286,9 @@ class Identifier {
   // This fit's normal equations when the probe stopped (friction_probe_seconds), what its
   // shift is measured against; null while it runs.
   std::unique_ptr<Identifier> probe_reference_;
-  void probe_add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m);
+  // regressed: Yp_, Yb_ hold this sample's regressor, which the probe takes instead of its own.
+  void probe_add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& dq, const Eigen::VectorXd& tau_m,
+                 bool regressed);
   void probe_restart();
 
   const model::Model& model_;
@@ -284,17 +309,18 @@ class Identifier {
     observer::FilterCoefficients c;
   };
   CachedCoefficients sample_coefficients_, regression_coefficients_;
-  Eigen::VectorXd row_;  // accumulate()'s scratch
   static const observer::FilterCoefficients& coefficients(const observer::Gains& gains, double dt,
                                                           CachedCoefficients& cache);
   Eigen::MatrixXd Yp_, Yb_, Fp_, Fb_, Yp_prev_, Yb_prev_;
   Eigen::MatrixXd friction_, friction_prev_, Ff_;  // n x 2: tanh, dq
   Eigen::VectorXd y_, y_prev_, Fy_;                 // tau_m - K B dq part handled separately
   Eigen::VectorXd pk_, pk_prev_, Fpk_;              // known momentum B dq
-  // Normal equations.
-  std::vector<Block> blocks_;
+  // Normal equations (mutable: flush() completes them from the row buffers).
+  mutable std::vector<Block> blocks_;
   double block_length_ = 0, block_start_ = 0;
-  std::vector<JointStats> fit_joint_, held_joint_;
+  mutable std::vector<JointStats> fit_joint_, held_joint_;
+  Eigen::MatrixXd W_, Z_;  // add_sample()'s scratch
+  Eigen::VectorXd ey_, e_;
   // Per joint: its rows do not count before this time (a log's settling, or its restart), nor
   // while it is slower than min_speed.
   std::vector<double> count_from_;

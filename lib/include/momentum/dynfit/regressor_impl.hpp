@@ -1,9 +1,13 @@
 // Template definitions for regressor.hpp. Include regressor.hpp, not this file.
 #pragma once
 
+#include <array>
+#include <vector>
+
 #include "momentum/dynfit/regressor.hpp"
 
 namespace momentum::dynfit {
+
 
 // World frame throughout. For body k: rotation R, origin o, angular velocity w, origin velocity
 // v. A unit of each parameter gives the body a momentum (linear l, angular a about o):
@@ -26,20 +30,47 @@ void momentum_regressor(const model::Model& model, model::DataTpl<S>& data,
   Yp.setZero(n, kBodyParameters * n);
   Yb.setZero(n, kBodyParameters * n);
   const Vector3& gravity = data.gravity;
-  // Per joint: V_i x S_i (angular, linear parts), and the velocity of the point at the origin.
+  // Per joint i, what does not depend on the body: its axis z, V_i x S_i (angular, linear
+  // parts), and o_i x z for the momentum about the joint, z.(a + (o - o_i) x l) =
+  // z.(a + o x l) + l.(o_i x z).
+  struct JointTerms {
+    Vector3 z, cross_angular, cross_linear, origin_cross_z;
+    bool revolute = false;
+  };
+  std::vector<JointTerms> joints(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    JointTerms& J = joints[static_cast<std::size_t>(i)];
+    const Vector3& z = data.axis[i];
+    const Vector3& oi = data.position[i];
+    const Vector3& wi = data.omega[i];
+    J.z = z;
+    J.revolute = data.revolute[i] != 0;
+    // V_i x S_i = [w_i x a_S ; w_i x b_S + vO_i x a_S], S_i = [a_S; b_S].
+    if (J.revolute) {
+      const Vector3 velocity_origin = data.velocity[i] + oi.cross(wi);
+      J.cross_angular = wi.cross(z);
+      J.cross_linear = wi.cross(Vector3(oi.cross(z))) + velocity_origin.cross(z);
+      J.origin_cross_z = oi.cross(z);
+    } else {
+      J.cross_angular = Vector3::Zero();
+      J.cross_linear = wi.cross(z);
+      J.origin_cross_z = Vector3::Zero();
+    }
+  }
   for (int k = 0; k < n; ++k) {
     const Matrix3& R = data.rotation[k];
     const Vector3& o = data.position[k];
     const Vector3& w = data.omega[k];
     const Vector3& v = data.velocity[k];
     const Vector3 w_body = R.transpose() * w;
-    std::array<Vector3, kBodyParameters> linear, angular;
+    // A unit of each parameter: linear momentum l and angular momentum about the world origin.
+    std::array<Vector3, kBodyParameters> linear, about_origin;
     linear[0] = v;
-    angular[0] = Vector3::Zero();
+    about_origin[0] = o.cross(v);
     for (int e = 0; e < 3; ++e) {
       const Vector3 axis = R.col(e);
       linear[1 + e] = w.cross(axis);
-      angular[1 + e] = axis.cross(v);
+      about_origin[1 + e] = Vector3(axis.cross(v)) + o.cross(linear[1 + e]);
     }
     // Ixx, Ixy, Ixz, Iyy, Iyz, Izz: E w_body, rotated back to the world.
     const int rows[6] = {0, 0, 0, 1, 1, 2};
@@ -49,44 +80,41 @@ void momentum_regressor(const model::Model& model, model::DataTpl<S>& data,
       ew[rows[e]] += w_body[cols[e]];
       if (rows[e] != cols[e]) ew[cols[e]] += w_body[rows[e]];
       linear[4 + e] = Vector3::Zero();
-      angular[4 + e] = R * ew;
+      about_origin[4 + e] = R * ew;
     }
+    // The potential energy's gradient: -g.(z x (o - o_i)) for m, -g.(z x R e) for m c_e.
+    const Vector3 g_cross_o = gravity.cross(o);
+    std::array<Vector3, 3> g_cross_axis;
+    for (int e = 0; e < 3; ++e) g_cross_axis[static_cast<std::size_t>(e)] = gravity.cross(Vector3(R.col(e)));
     for (int i = 0; i <= k; ++i) {
-      const Vector3& z = data.axis[i];
-      const Vector3& oi = data.position[i];
-      const Vector3& wi = data.omega[i];
-      const bool revolute = data.revolute[i] != 0;
-      // V_i x S_i = [w_i x a_S ; w_i x b_S + vO_i x a_S], S_i = [a_S; b_S].
-      Vector3 cross_angular, cross_linear;
-      if (revolute) {
-        const Vector3 velocity_origin = data.velocity[i] + oi.cross(wi);
-        cross_angular = wi.cross(z);
-        cross_linear = wi.cross(Vector3(oi.cross(z))) + velocity_origin.cross(z);
+      const JointTerms& J = joints[static_cast<std::size_t>(i)];
+      const int c = kBodyParameters * k;
+      if (J.revolute) {
+        // -g.(z x arm) = -z.(arm x g) = z.(g x arm), arm = o - o_i.
+        const Vector3 g_cross_arm = g_cross_o - gravity.cross(data.position[i]);
+        for (int j = 0; j < kBodyParameters; ++j) {
+          const Vector3& l = linear[static_cast<std::size_t>(j)];
+          const Vector3& a = about_origin[static_cast<std::size_t>(j)];
+          const S momentum_i = J.z.dot(a) + l.dot(J.origin_cross_z);
+          const S coriolis_i = a.dot(J.cross_angular) + l.dot(J.cross_linear);
+          S gravity_i = S(0.0);
+          if (j == 0) {
+            gravity_i = J.z.dot(g_cross_arm);
+          } else if (j <= 3) {
+            gravity_i = J.z.dot(g_cross_axis[static_cast<std::size_t>(j - 1)]);
+          }
+          Yp(i, c + j) += momentum_i;
+          Yb(i, c + j) += gravity_i - coriolis_i;
+        }
       } else {
-        cross_angular = Vector3::Zero();
-        cross_linear = wi.cross(z);
-      }
-      const Vector3 arm = o - oi;
-      for (int j = 0; j < kBodyParameters; ++j) {
-        const Vector3& l = linear[j];
-        const Vector3 about_origin = angular[j] + o.cross(l);
-        S momentum_i, coriolis_i;
-        if (revolute) {
-          momentum_i = z.dot(Vector3(angular[j] + arm.cross(l)));
-          coriolis_i = about_origin.dot(cross_angular) + l.dot(cross_linear);
-        } else {
-          momentum_i = z.dot(l);
-          coriolis_i = l.dot(cross_linear);
+        for (int j = 0; j < kBodyParameters; ++j) {
+          const Vector3& l = linear[static_cast<std::size_t>(j)];
+          const S momentum_i = J.z.dot(l);
+          const S coriolis_i = l.dot(J.cross_linear);
+          const S gravity_i = j == 0 ? S(-gravity.dot(J.z)) : S(0.0);
+          Yp(i, c + j) += momentum_i;
+          Yb(i, c + j) += gravity_i - coriolis_i;
         }
-        S gravity_i = S(0.0);
-        if (j == 0) {
-          gravity_i = revolute ? S(-gravity.dot(Vector3(z.cross(arm)))) : S(-gravity.dot(z));
-        } else if (j <= 3 && revolute) {
-          gravity_i = -gravity.dot(Vector3(z.cross(Vector3(R.col(j - 1)))));
-        }
-        const int c = kBodyParameters * k + j;
-        Yp(i, c) += momentum_i;
-        Yb(i, c) += gravity_i - coriolis_i;
       }
     }
   }
