@@ -16,24 +16,6 @@ namespace {
 // 3: the input held no row at all, so nothing was checked (a warning says so).
 constexpr int kNoCollision = 0, kCollision = 1, kError = 2, kNoRows = 3;
 
-// contact::EventContact as the detector's annotator (contact/ builds on detect/, not the reverse).
-class ContactAnnotator final : public detect::EventAnnotator {
- public:
-  ContactAnnotator(const model::Model& chain, const detect::Thresholds& thresholds,
-                   std::optional<contact::ClassRule> rule, const contact::LocatorOptions& locator)
-      : contact_(chain, thresholds, std::move(rule), locator) {}
-  void add(double t, const double* q, const double* x, const double* dq) override { contact_.add(t, q, x, dq); }
-  void annotate(detect::Event& event) override { contact_.annotate(event); }
-  std::optional<std::string_view> decide() override {
-    const auto decided = contact_.decide();
-    return decided ? std::optional(contact::class_name(*decided)) : std::nullopt;
-  }
-  bool classifies() const override { return contact_.classifies(); }
-
- private:
-  contact::EventContact contact_;
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -99,13 +81,7 @@ int main(int argc, char** argv) {
       std::string why;
       if (!options.IsValid(&why)) throw cli::UsageError(why);
       if (!locator.IsValid(&why)) throw cli::UsageError("--link-radius: " + why);
-      if (!no_identify)
-        options.annotator = [&](const model::Model& chain, const model::Profile& profile, const detect::Thresholds& t) {
-          const std::size_t n = t.joints.size();
-          return std::make_unique<ContactAnnotator>(
-              chain, t, contact::rule_from_profile(profile.document, detect::signal_name(t.signal), n, tool.profile()),
-              locator);
-        };
+      if (!no_identify) options.annotator = contact::annotator_factory(locator, tool.profile());
       const auto summary = detect::StreamDetector(options).run(tool.inputs().empty() ? "-" : tool.inputs().front());
       if (stats && summary.finished) std::fputs(detect::format_stream_detector_stats(summary, "mo-detect").c_str(), stderr);
       return summary.collisions > 0 ? kCollision : kNoCollision;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include "momentum/core/error.hpp"
 
@@ -90,7 +91,7 @@ void EventContact::annotate(detect::Event& event) {
     decision_reported_ = false;
     // Already over a collision level, or the pulse already over or wider than the rule's width,
     // at detection: the onset row says so, and decide() still reports it once for the hooks.
-    if (decide()) decision_reported_ = false;
+    if (decide_class()) decision_reported_ = false;
     fill(event, false);
   } else {
     fill(event, true);
@@ -98,7 +99,7 @@ void EventContact::annotate(detect::Event& event) {
   }
 }
 
-std::optional<EventClass> EventContact::decide() {
+std::optional<EventClass> EventContact::decide_class() {
   if (!rule_ || !window_.is_open() || decision_reported_) return std::nullopt;
   if (decided_ == EventClass::unknown) {
     for (std::size_t j = 0; j < std::min(n_, rule_->collision_level.size()); ++j)
@@ -113,6 +114,21 @@ std::optional<EventClass> EventContact::decide() {
   if (decided_ == EventClass::unknown) return std::nullopt;
   decision_reported_ = true;
   return decided_;
+}
+
+std::optional<std::string_view> EventContact::decide() {
+  const auto decided = decide_class();
+  return decided ? std::optional(class_name(*decided)) : std::nullopt;
+}
+
+detect::AnnotatorFactory annotator_factory(LocatorOptions options, std::string profile_path) {
+  return [options, profile_path = std::move(profile_path)](const model::Model& chain, const model::Profile& profile,
+                                                            const detect::Thresholds& thresholds)
+             -> std::unique_ptr<detect::EventAnnotator> {
+    auto rule = rule_from_profile(profile.document, detect::signal_name(thresholds.signal), thresholds.joints.size(),
+                                  profile_path);
+    return std::make_unique<EventContact>(chain, thresholds, std::move(rule), options);
+  };
 }
 
 }  // namespace momentum::contact

@@ -22,6 +22,7 @@
 #include "momentum/contact/locate.hpp"
 #include "momentum/contact/window.hpp"
 #include "momentum/detect/events.hpp"
+#include "momentum/detect/stream_detector.hpp"
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/model/model.hpp"
 
@@ -32,7 +33,9 @@ namespace momentum::contact {
 // `slow`: the larger of that and the same of the slow state's band.
 Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds, bool slow = false);
 
-class EventContact {
+// detect::StreamDetector's annotator (mo-detect): contact/ builds on detect/, which sees it
+// through that interface only.
+class EventContact final : public detect::EventAnnotator {
  public:
   // `model` must outlive this; its nq must equal the thresholds' joints (momentum::Error
   // otherwise). `rule`: the calibrated class rule, none: events are not classified.
@@ -43,15 +46,17 @@ class EventContact {
   // signal), velocities dq (nq, rad/s, or null). A joint that is slow (under the rest velocity,
   // and for the hangover after it) is weighted by its calibrated slow band, not its moving
   // band: friction flips there, and its compensation is least sure.
-  void add(double t, const double* q, const double* x, const double* dq);
+  void add(double t, const double* q, const double* x, const double* dq) override;
   // Fills `event` (a row the detector produced on the last row added) and moves the window:
   // an onset opens it, an end closes it.
-  void annotate(detect::Event& event);
+  void annotate(detect::Event& event) override;
   // Once per event, on the row where its class is decided: the class; nullopt on other rows,
   // without a rule, or with no event open.
-  std::optional<EventClass> decide();
+  std::optional<EventClass> decide_class();
+  // decide_class() by name (class_name), for the stream detector's hooks.
+  std::optional<std::string_view> decide() override;
 
-  bool classifies() const { return rule_.has_value(); }
+  bool classifies() const override { return rule_.has_value(); }
 
  private:
   void fill(detect::Event& event, bool whole);
@@ -69,5 +74,10 @@ class EventContact {
   EventClass decided_ = EventClass::unknown;
   bool decision_reported_ = true;
 };
+
+// The stream detector's annotator factory: an EventContact with `options` for each stream, its
+// class rule read from the profile's thresholds (rule_from_profile; messages name
+// `profile_path`).
+detect::AnnotatorFactory annotator_factory(LocatorOptions options, std::string profile_path);
 
 }  // namespace momentum::contact
