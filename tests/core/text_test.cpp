@@ -67,6 +67,19 @@ TEST(Number, ShortAndSignificantAreWhatPrintfWrites) {
   EXPECT_EQ(significant(1e6, 3), "1e+06");
 }
 
+TEST(Number, FixedDecimalsAsPrintfWritesThem) {
+  EXPECT_EQ(fixed(12.345, 1), "12.3");
+  EXPECT_EQ(fixed(2.0 / 3.0, 3), "0.667");
+  EXPECT_EQ(fixed(12.0, 0), "12");
+  EXPECT_EQ(fixed(-0.04, 1), "-0.0");  // as printf: the sign of a value rounded to zero stays
+  EXPECT_EQ(fixed(1e20, 1), "100000000000000000000.0");
+  EXPECT_EQ(fixed(std::numeric_limits<double>::infinity(), 2), "inf");
+  EXPECT_EQ(signed_fixed(12.5, 1), "+12.5");
+  EXPECT_EQ(signed_fixed(-0.25, 2), "-0.25");
+  EXPECT_EQ(signed_fixed(0.0, 1), "+0.0");
+  EXPECT_EQ(signed_fixed(std::numeric_limits<double>::infinity(), 1), "+inf");
+}
+
 TEST(Number, NanosecondsAsCandumpWritesThem) {
   char out[40];
   auto text = [&](std::int64_t ns, int digits) { return std::string(out, format_nanoseconds(ns, digits, out)); };

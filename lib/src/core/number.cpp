@@ -36,6 +36,18 @@ std::string significant(double value, int digits) {
   return text;
 }
 
+std::string fixed(double value, int decimals) {
+  char text[340];
+  std::snprintf(text, sizeof text, "%.*f", decimals, value);
+  return text;
+}
+
+std::string signed_fixed(double value, int decimals) {
+  char text[340];
+  std::snprintf(text, sizeof text, "%+.*f", decimals, value);
+  return text;
+}
+
 std::size_t format_nanoseconds(std::int64_t ns, int second_digits, char* out) {
   char* o = out;
   // The magnitude as unsigned, so that the most negative count has one too.

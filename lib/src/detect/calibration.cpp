@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::detect {
@@ -12,11 +13,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string fmt(double x, const char* format = "%.6g") {
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, format, x);
-  return buffer;
-}
 
 }  // namespace
 
@@ -429,16 +425,16 @@ CalibrationResult Calibrator::result() const {
     auto warn_contact = [&](const char* state, const MagnitudeSummary& s, const ThresholdBasis& basis) {
       if (options_.rule == ThresholdRule::rate && basis.tail.ok) {
         for (const auto& o : basis.tail.outliers)
-          out.warnings.push_back(name + " " + state + ": " + fmt(o.m) + " Nm at " + o.where + " (t=" + fmt(o.t) +
+          out.warnings.push_back(name + " " + state + ": " + core::significant(o.m, 6) + " Nm at " + o.where + " (t=" + core::significant(o.t, 6) +
                                  " s) is an outlier, left out of the threshold: the tail of the " +
                                  std::to_string(basis.tail.tail.peaks) + " largest other peaks reaches it with " +
-                                 "probability under " + fmt(options_.tail.outlier_probability, "%.3g") +
+                                 "probability under " + core::significant(options_.tail.outlier_probability, 3) +
                                  " (a glitch, an abrupt stop, or a contact?)");
         return;
       }
-      out.warnings.push_back(name + " " + state + ": max " + fmt(s.max) + " Nm at " + s.where_max + " (t=" +
-                             fmt(s.t_max) + " s) is " + fmt(s.max / s.p999, "%.3g") + " times p99.9 and " +
-                             (s.typical_peak > 0 ? fmt(s.max / s.typical_peak, "%.3g") : std::string("?")) +
+      out.warnings.push_back(name + " " + state + ": max " + core::significant(s.max, 6) + " Nm at " + s.where_max + " (t=" +
+                             core::significant(s.t_max, 6) + " s) is " + core::significant(s.max / s.p999, 3) + " times p99.9 and " +
+                             (s.typical_peak > 0 ? core::significant(s.max / s.typical_peak, 3) : std::string("?")) +
                              " times the typical peak: looks like a contact, not noise");
     };
     if (c.moving_contact) warn_contact("moving", moving_all, c.moving_basis);
@@ -459,14 +455,14 @@ std::string format_calibration_report(const CalibrationResult& r) {
   std::string out;
   out += "# signal " + sig + ": " + std::to_string(r.streams.size()) + " stream" + (r.streams.size() == 1 ? "" : "s") +
          ", " + std::to_string(r.rows) + " rows; margin ";
-  out += r.thresholds.margin_nm ? fmt(*r.thresholds.margin_nm) + " Nm" : fmt(r.thresholds.margin_percent.value_or(0)) + "%";
+  out += r.thresholds.margin_nm ? core::significant(*r.thresholds.margin_nm, 6) + " Nm" : core::significant(r.thresholds.margin_percent.value_or(0), 6) + "%";
   if (r.rule == ThresholdRule::rate)
-    out += "; rule rate: " + fmt(r.false_alarms_per_hour, "%.3g") + " false alarms per hour of each state";
+    out += "; rule rate: " + core::significant(r.false_alarms_per_hour, 3) + " false alarms per hour of each state";
   else
     out += "; rule max";
   if (r.states)
-    out += "; slow when |dq| < " + fmt(r.thresholds.rest_rule.velocity) + " rad/s (and " +
-           fmt(r.thresholds.rest_rule.hangover) + " s after), at rest after " + fmt(r.thresholds.rest_rule.time) +
+    out += "; slow when |dq| < " + core::significant(r.thresholds.rest_rule.velocity, 6) + " rad/s (and " +
+           core::significant(r.thresholds.rest_rule.hangover, 6) + " s after), at rest after " + core::significant(r.thresholds.rest_rule.time, 6) +
            " s of it (rest: |" + sig + " - baseline|, rest_abs: |" + sig + "| at rest)\n";
   else
     out += "; no motion states\n";
@@ -482,17 +478,17 @@ std::string format_calibration_report(const CalibrationResult& r) {
       if (s.samples == 0) return;
       // Rates far below any a log could show are only the tail's arithmetic: a bound suffices.
       std::string rate = "-";
-      if (basis && std::isfinite(basis->per_hour)) rate = basis->per_hour < 1e-6 ? "<1e-6" : fmt(basis->per_hour, "%.3g");
+      if (basis && std::isfinite(basis->per_hour)) rate = basis->per_hour < 1e-6 ? "<1e-6" : core::significant(basis->per_hour, 3);
       std::snprintf(line, sizeof line, "%-6s %-5zu %-8s %10llu %10s %10s %10s %10s %10s %10s %10s %10s  %s\n",
-                    sig.c_str(), j + 1, state, static_cast<unsigned long long>(s.samples), fmt(s.seconds).c_str(),
-                    fmt(s.rms).c_str(), fmt(s.p99).c_str(), fmt(s.p999).c_str(), fmt(s.max).c_str(),
-                    fmt(s.t_max).c_str(), threshold.c_str(), rate.c_str(), s.where_max.c_str());
+                    sig.c_str(), j + 1, state, static_cast<unsigned long long>(s.samples), core::significant(s.seconds, 6).c_str(),
+                    core::significant(s.rms, 6).c_str(), core::significant(s.p99, 6).c_str(), core::significant(s.p999, 6).c_str(), core::significant(s.max, 6).c_str(),
+                    core::significant(s.t_max, 6).c_str(), threshold.c_str(), rate.c_str(), s.where_max.c_str());
       out += line;
     };
-    row("moving", c.moving, fmt(T.moving), &c.moving_basis);
-    row("slow", c.slow, T.slow ? fmt(*T.slow) : "-", T.slow ? &c.slow_basis : nullptr);
-    row("rest", c.rest, T.rest && !T.rest_absolute ? fmt(*T.rest) : "-", T.rest && !T.rest_absolute ? &c.rest_basis : nullptr);
-    row("rest_abs", c.rest_absolute, T.rest && T.rest_absolute ? fmt(*T.rest) : "-",
+    row("moving", c.moving, core::significant(T.moving, 6), &c.moving_basis);
+    row("slow", c.slow, T.slow ? core::significant(*T.slow, 6) : "-", T.slow ? &c.slow_basis : nullptr);
+    row("rest", c.rest, T.rest && !T.rest_absolute ? core::significant(*T.rest, 6) : "-", T.rest && !T.rest_absolute ? &c.rest_basis : nullptr);
+    row("rest_abs", c.rest_absolute, T.rest && T.rest_absolute ? core::significant(*T.rest, 6) : "-",
         T.rest && T.rest_absolute ? &c.rest_basis : nullptr);
   }
   // The tails behind the thresholds: what a reader needs to judge the extrapolation.
@@ -506,19 +502,19 @@ std::string format_calibration_report(const CalibrationResult& r) {
       }
       const ParetoTail& p = b.tail.tail;
       out += "# joint " + std::to_string(j + 1) + " " + state + " tail: " + std::to_string(p.peaks) + " peaks over " +
-             fmt(p.u0, "%.4g") + " Nm in " + fmt(b.tail.seconds / 3600, "%.3g") + " h (" + fmt(p.rate, "%.3g") +
-             " per h), sigma " + fmt(p.sigma, "%.3g") + " Nm, " +
-             (p.xi == 0 ? "exponential" : "xi " + fmt(p.xi, "%.3g")) +
-             (std::isnan(b.tail.shape) || p.xi == b.tail.shape ? "" : " (fitted shape xi " + fmt(b.tail.shape, "%.3g") + ")") +
+             core::significant(p.u0, 4) + " Nm in " + core::significant(b.tail.seconds / 3600, 3) + " h (" + core::significant(p.rate, 3) +
+             " per h), sigma " + core::significant(p.sigma, 3) + " Nm, " +
+             (p.xi == 0 ? "exponential" : "xi " + core::significant(p.xi, 3)) +
+             (std::isnan(b.tail.shape) || p.xi == b.tail.shape ? "" : " (fitted shape xi " + core::significant(b.tail.shape, 3) + ")") +
              "; threshold from " +
              (b.from_tail ? "the tail" : "the largest peak + margin") + "\n";
     };
     if (r.thresholds.joints[j].rest && !r.thresholds.joints[j].rest_absolute && !c.rest_drift_costs.empty()) {
-      out += "# joint " + std::to_string(j + 1) + " rest baseline: follows drift at " + fmt(c.rest_drift) + " s (" +
+      out += "# joint " + std::to_string(j + 1) + " rest baseline: follows drift at " + core::significant(c.rest_drift, 6) + " s (" +
              "drift time: threshold, smallest contact seen";
       for (std::size_t d = 0; d < c.rest_drift_costs.size() && d < r.rest_drift_candidates.size(); ++d)
-        out += (d ? "; " : ": ") + fmt(r.rest_drift_candidates[d]) + " s: " + fmt(c.rest_drift_costs[d].first, "%.3g") +
-               ", " + fmt(c.rest_drift_costs[d].second, "%.3g") + " Nm";
+        out += (d ? "; " : ": ") + core::significant(r.rest_drift_candidates[d], 6) + " s: " + core::significant(c.rest_drift_costs[d].first, 3) +
+               ", " + core::significant(c.rest_drift_costs[d].second, 3) + " Nm";
       out += ")\n";
     }
     tail_line("moving", c.moving_basis);
@@ -529,8 +525,8 @@ std::string format_calibration_report(const CalibrationResult& r) {
     const auto& c = r.joints[j];
     const auto& T = r.thresholds.joints[j];
     if (T.envelope)
-      out += "# joint " + std::to_string(j + 1) + " envelope: " + fmt(T.envelope->a) + " + " + fmt(T.envelope->b) +
-             " |dq| Nm (mean over the moving rows " + fmt(c.envelope_mean) + " Nm, constant " + fmt(T.moving) + " Nm)\n";
+      out += "# joint " + std::to_string(j + 1) + " envelope: " + core::significant(T.envelope->a, 6) + " + " + core::significant(T.envelope->b, 6) +
+             " |dq| Nm (mean over the moving rows " + core::significant(c.envelope_mean, 6) + " Nm, constant " + core::significant(T.moving, 6) + " Nm)\n";
   }
   for (const auto& note : r.notes) out += "# note: " + note + "\n";
   for (const auto& warning : r.warnings) out += "# warning: " + warning + "\n";
@@ -552,9 +548,9 @@ std::string format_threshold_changes(const Thresholds* old, const Thresholds& up
     const auto& b = updated.joints[j];
     auto line = [&](const char* state, std::optional<double> before, std::optional<double> after) {
       if (!before && !after) return;
-      out += "# change " + sig + std::to_string(j + 1) + " " + state + " " + (before ? fmt(*before) : "-") + " -> " +
-             (after ? fmt(*after) : "-") + " Nm";
-      if (before && after) out += " " + fmt(100 * (*after - *before) / *before, "%+.1f") + "%";
+      out += "# change " + sig + std::to_string(j + 1) + " " + state + " " + (before ? core::significant(*before, 6) : "-") + " -> " +
+             (after ? core::significant(*after, 6) : "-") + " Nm";
+      if (before && after) out += " " + core::signed_fixed(100 * (*after - *before) / *before, 1) + "%";
       out += "\n";
     };
     line("moving", a.moving, b.moving);
@@ -571,8 +567,8 @@ std::vector<std::string> threshold_rises(const Thresholds& old, const Thresholds
   for (std::size_t j = 0; j < updated.joints.size(); ++j) {
     auto check = [&](const char* state, std::optional<double> before, std::optional<double> after) {
       if (!before || !after || !(*before > 0) || !(*after > factor * *before)) return;
-      out.push_back(sig + std::to_string(j + 1) + " " + state + " " + fmt(*before) + " -> " + fmt(*after) + " Nm, " +
-                    fmt(*after / *before, "%.3g") + " times");
+      out.push_back(sig + std::to_string(j + 1) + " " + state + " " + core::significant(*before, 6) + " -> " + core::significant(*after, 6) + " Nm, " +
+                    core::significant(*after / *before, 3) + " times");
     };
     check("moving", old.joints[j].moving, updated.joints[j].moving);
     check("slow", old.joints[j].slow, updated.joints[j].slow);

@@ -5,17 +5,15 @@
 #include <filesystem>
 #include <string_view>
 
+#include "momentum/model/json_number.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::detect {
 
 namespace {
 
-// JSON has no NaN: a missing number is null.
-nlohmann::json number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-
 nlohmann::json optional_number(const std::optional<double>& x) {
-  return x ? number(*x) : nlohmann::json(nullptr);
+  return x ? model::json_number(*x) : nlohmann::json(nullptr);
 }
 
 }  // namespace
@@ -39,31 +37,31 @@ nlohmann::json profile_identity(const nlohmann::json& document, const std::strin
 nlohmann::json event_json(const Event& event, const std::string& source, const nlohmann::json& profile,
                           const Thresholds& thresholds) {
   nlohmann::json peaks = nlohmann::json::array();
-  for (const double p : event.peaks) peaks.push_back(number(p));
+  for (const double p : event.peaks) peaks.push_back(model::json_number(p));
   const bool end = event.kind == EventKind::end;
   const Event::Contact& c = event.contact;
   auto word = [](const std::string& w) { return w.empty() ? nlohmann::json(nullptr) : nlohmann::json(w); };
   nlohmann::json contact = {{"class", word(c.event_class)},
-                            {"rise", number(c.rise)},
-                            {"width", number(c.width)},
-                            {"force", number(c.force)},
-                            {"force_sd", number(c.force_sd)},
+                            {"rise", model::json_number(c.rise)},
+                            {"width", model::json_number(c.width)},
+                            {"force", model::json_number(c.force)},
+                            {"force_sd", model::json_number(c.force_sd)},
                             {"force_world", std::isnan(c.fx) ? nlohmann::json(nullptr)
-                                                             : nlohmann::json{number(c.fx), number(c.fy), number(c.fz)}},
+                                                             : nlohmann::json{model::json_number(c.fx), model::json_number(c.fy), model::json_number(c.fz)}},
                             {"point", std::isnan(c.px) ? nlohmann::json(nullptr)
-                                                       : nlohmann::json{number(c.px), number(c.py), number(c.pz)}},
-                            {"point_sd", number(c.point_sd)},
-                            {"peak_force", number(c.peak_force)},
-                            {"impulse", number(c.impulse)},
-                            {"fit", number(c.fit)},
+                                                       : nlohmann::json{model::json_number(c.px), model::json_number(c.py), model::json_number(c.pz)}},
+                            {"point_sd", model::json_number(c.point_sd)},
+                            {"peak_force", model::json_number(c.peak_force)},
+                            {"impulse", model::json_number(c.impulse)},
+                            {"fit", model::json_number(c.fit)},
                             {"seen", word(c.seen)}};
   return {{"event", event.id},
           {"kind", std::string(kind_name(event.kind))},
-          {"t_onset_estimate", number(event.t_onset_estimate)},
-          {"t_detect", number(event.t_detect)},
+          {"t_onset_estimate", model::json_number(event.t_onset_estimate)},
+          {"t_detect", model::json_number(event.t_detect)},
           {"link", event.link},
           {"joints", event.joints},
-          {"t_end", end ? number(event.t_end) : nlohmann::json(nullptr)},
+          {"t_end", end ? model::json_number(event.t_end) : nlohmann::json(nullptr)},
           {"ended_by", end ? nlohmann::json(std::string(end_reason_name(event.ended_by))) : nlohmann::json(nullptr)},
           {"peaks", peaks},
           {"contact", contact},
@@ -84,7 +82,7 @@ std::string calibration_json_lines(const CalibrationResult& result, const nlohma
     for (const auto& [state, s] : states) {
       nlohmann::json threshold = nullptr;
       const std::string_view name = state;
-      if (name == "moving") threshold = number(t.moving);
+      if (name == "moving") threshold = model::json_number(t.moving);
       else if (name == "slow") threshold = optional_number(t.slow);
       else if (name == "rest" && !t.rest_absolute) threshold = optional_number(t.rest);
       else if (name == "rest_abs" && t.rest_absolute) threshold = optional_number(t.rest);
@@ -94,12 +92,12 @@ std::string calibration_json_lines(const CalibrationResult& result, const nlohma
                                    {"joint", j + 1},
                                    {"state", state},
                                    {"samples", s->samples},
-                                   {"seconds", number(s->seconds)},
-                                   {"rms", any ? number(s->rms) : nlohmann::json(nullptr)},
-                                   {"p99", any ? number(s->p99) : nlohmann::json(nullptr)},
-                                   {"p999", any ? number(s->p999) : nlohmann::json(nullptr)},
-                                   {"max", any ? number(s->max) : nlohmann::json(nullptr)},
-                                   {"t_max", any ? number(s->t_max) : nlohmann::json(nullptr)},
+                                   {"seconds", model::json_number(s->seconds)},
+                                   {"rms", any ? model::json_number(s->rms) : nlohmann::json(nullptr)},
+                                   {"p99", any ? model::json_number(s->p99) : nlohmann::json(nullptr)},
+                                   {"p999", any ? model::json_number(s->p999) : nlohmann::json(nullptr)},
+                                   {"max", any ? model::json_number(s->max) : nlohmann::json(nullptr)},
+                                   {"t_max", any ? model::json_number(s->t_max) : nlohmann::json(nullptr)},
                                    {"where", any ? nlohmann::json(s->where_max) : nlohmann::json(nullptr)},
                                    {"threshold", threshold}};
       out += line.dump() + "\n";

@@ -33,8 +33,6 @@ void on_signal(int number) {
   errno = saved;
 }
 
-std::string number_text(double value) { return core::exact(value); }
-
 }  // namespace
 
 InterruptWatch::InterruptWatch() {
@@ -88,21 +86,21 @@ void CommandRunner::launch(const Event& event) {
     if (std::strncmp(*e, "MOMENTUM_", 9) != 0) env.emplace_back(*e);
   std::string joints, peaks;
   for (int j : event.joints) joints += (joints.empty() ? "" : " ") + std::to_string(j);
-  for (double p : event.peaks) peaks += (peaks.empty() ? "" : " ") + number_text(p);
+  for (double p : event.peaks) peaks += (peaks.empty() ? "" : " ") + core::exact(p);
   env.push_back("MOMENTUM_EVENT=" + std::to_string(event.id));
   env.push_back("MOMENTUM_LINK=" + std::to_string(event.link));
   env.push_back("MOMENTUM_JOINTS=" + joints);
-  env.push_back("MOMENTUM_T_ONSET=" + number_text(event.t_onset_estimate));
-  env.push_back("MOMENTUM_T_DETECT=" + number_text(event.t_detect));
+  env.push_back("MOMENTUM_T_ONSET=" + core::exact(event.t_onset_estimate));
+  env.push_back("MOMENTUM_T_DETECT=" + core::exact(event.t_detect));
   env.push_back("MOMENTUM_PEAKS=" + peaks);
   // What identification found by then (empty when unknown).
-  auto known = [](double v) { return std::isnan(v) ? std::string() : number_text(v); };
+  auto known = [](double v) { return std::isnan(v) ? std::string() : core::exact(v); };
   env.push_back("MOMENTUM_CLASS=" + event.contact.event_class);
   env.push_back("MOMENTUM_FORCE=" + known(event.contact.force));
   env.push_back("MOMENTUM_POINT=" + (std::isnan(event.contact.px) ? std::string()
-                                                                   : number_text(event.contact.px) + " " +
-                                                                         number_text(event.contact.py) + " " +
-                                                                         number_text(event.contact.pz)));
+                                                                   : core::exact(event.contact.px) + " " +
+                                                                         core::exact(event.contact.py) + " " +
+                                                                         core::exact(event.contact.pz)));
   std::vector<char*> envp;
   for (auto& e : env) envp.push_back(e.data());
   envp.push_back(nullptr);

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "momentum/core/number.hpp"
+#include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::detect {
@@ -9,12 +11,6 @@ namespace momentum::detect {
 namespace {
 
 bool positive(double x) { return std::isfinite(x) && x > 0; }
-
-std::string fmt(double x) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.9g", x);
-  return buffer;
-}
 
 }  // namespace
 
@@ -28,26 +24,21 @@ Signal parse_signal(std::string_view name) {
 
 std::vector<Signal> parse_signal_list(std::string_view comma_separated) {
   std::vector<Signal> signals;
-  if (comma_separated.empty()) return signals;
-  for (;;) {
-    const std::size_t comma = comma_separated.find(',');
-    signals.push_back(parse_signal(comma_separated.substr(0, comma)));
-    if (comma == std::string_view::npos) return signals;
-    comma_separated.remove_prefix(comma + 1);
-  }
+  for (const auto& name : core::split(comma_separated)) signals.push_back(parse_signal(name));
+  return signals;
 }
 
 bool RestRule::IsValid(std::string* why) const {
   if (!positive(velocity)) {
-    if (why) *why = "rest velocity must be > 0, not " + fmt(velocity);
+    if (why) *why = "rest velocity must be > 0, not " + core::significant(velocity, 9);
     return false;
   }
   if (!(std::isfinite(time) && time >= 0)) {
-    if (why) *why = "rest time must be >= 0, not " + fmt(time);
+    if (why) *why = "rest time must be >= 0, not " + core::significant(time, 9);
     return false;
   }
   if (!(std::isfinite(hangover) && hangover >= 0)) {
-    if (why) *why = "hangover must be >= 0, not " + fmt(hangover);
+    if (why) *why = "hangover must be >= 0, not " + core::significant(hangover, 9);
     return false;
   }
   return true;
@@ -66,17 +57,17 @@ bool Thresholds::IsValid(std::string* why) const {
       if (why) *why = name + ": " + text;
       return false;
     };
-    if (!positive(J.moving)) return bad("moving threshold must be > 0, not " + fmt(J.moving));
+    if (!positive(J.moving)) return bad("moving threshold must be > 0, not " + core::significant(J.moving, 9));
     if (!(J.band >= 0 && std::isfinite(J.band))) return bad("band must be >= 0");
-    if (J.slow && !positive(*J.slow)) return bad("slow threshold must be > 0, not " + fmt(*J.slow));
+    if (J.slow && !positive(*J.slow)) return bad("slow threshold must be > 0, not " + core::significant(*J.slow, 9));
     if (!(J.slow_band >= 0 && std::isfinite(J.slow_band))) return bad("slow band must be >= 0");
-    if (J.rest && !positive(*J.rest)) return bad("rest threshold must be > 0, not " + fmt(*J.rest));
+    if (J.rest && !positive(*J.rest)) return bad("rest threshold must be > 0, not " + core::significant(*J.rest, 9));
     if (!(J.rest_band >= 0 && std::isfinite(J.rest_band))) return bad("rest band must be >= 0");
     if (!(J.rest_drift >= 0 && !std::isnan(J.rest_drift))) return bad("rest drift time must be >= 0 s");
     if (J.envelope) {
-      if (!positive(J.envelope->a)) return bad("envelope a must be > 0, not " + fmt(J.envelope->a));
+      if (!positive(J.envelope->a)) return bad("envelope a must be > 0, not " + core::significant(J.envelope->a, 9));
       if (!(std::isfinite(J.envelope->b) && J.envelope->b >= 0))
-        return bad("envelope b must be >= 0, not " + fmt(J.envelope->b));
+        return bad("envelope b must be >= 0, not " + core::significant(J.envelope->b, 9));
     }
   }
   return true;

@@ -3,7 +3,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "momentum/core/number.hpp"
 #include "momentum/dynfit/regressor.hpp"
+#include "momentum/model/json_number.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
 
@@ -11,18 +13,10 @@ namespace momentum::dynfit {
 
 namespace {
 
-nlohmann::json number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-
 nlohmann::json vector_json(const Eigen::VectorXd& v) {
   nlohmann::json out = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < v.size(); ++i) out.push_back(number(v[i]));
+  for (Eigen::Index i = 0; i < v.size(); ++i) out.push_back(model::json_number(v[i]));
   return out;
-}
-
-std::string format(const char* pattern, double x) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, pattern, x);
-  return buffer;
 }
 
 const char* excitation(const ParameterEstimate& p) {
@@ -48,9 +42,9 @@ std::string combination_text(const BaseParameter& base, const std::vector<std::s
     const std::string name = std::string(parameter_names()[static_cast<std::size_t>(c % kBodyParameters)]) + "(" +
                              bodies[static_cast<std::size_t>(c / kBodyParameters)] + ")";
     if (t == 0) {
-      text += format("%.3g ", w) + name;
+      text += core::significant(w, 3) + " " + name;
     } else {
-      text += (w < 0 ? " - " : " + ") + format("%.3g ", std::abs(w)) + name;
+      text += (w < 0 ? " - " : " + ") + core::significant(std::abs(w), 3) + " " + name;
     }
   }
   if (terms.size() > 6) text += " + ...";
@@ -94,7 +88,7 @@ std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier&
       t_last = -std::numeric_limits<double>::infinity();
     }
     if (std::isfinite(t) && !(t > t_last)) {
-      in.reject_row("time does not increase", "t=" + format("%.17g", t));
+      in.reject_row("time does not increase", "t=" + core::significant(t, 17));
       continue;
     }
     if (std::isfinite(t)) t_last = t;
@@ -180,13 +174,13 @@ std::string report_text(const Report& report) {
     std::snprintf(buffer, sizeof buffer, "  joint %d %-12s %9.4f -> %9.4f", j + 1,
                   report.joint_names[static_cast<std::size_t>(j)].c_str(), s.rms_before[j], s.rms_after[j]);
     std::string text = buffer;
-    if (report.has_current && s.rms_current.size() == s.nq) text += format("   (%.4f)", s.rms_current[j]);
-    if (!s.projections.empty()) text += format("   [%.4f before the projection]", s.rms_unprojected[j]);
+    if (report.has_current && s.rms_current.size() == s.nq) text += "   (" + core::fixed(s.rms_current[j], 4) + ")";
+    if (!s.projections.empty()) text += "   [" + core::fixed(s.rms_unprojected[j], 4) + " before the projection]";
     line(text);
   }
   if (s.velocity_noise_draws > 0) {
     std::string levels;
-    for (int j = 0; j < s.nq; ++j) levels += format(" %.2g", s.velocity_noise[j]);
+    for (int j = 0; j < s.nq; ++j) levels += " " + core::significant(s.velocity_noise[j], 2);
     line("velocity noise (rad/s per joint):" + levels + "; its bias is estimated from " +
          std::to_string(s.velocity_noise_draws) + " fit" + (s.velocity_noise_draws == 1 ? "" : "s") +
          " with it doubled");
@@ -194,7 +188,7 @@ std::string report_text(const Report& report) {
     line("velocity noise: not estimated (none measured, or --velocity-noise-draws 0)");
   }
   if (s.friction_probe_min_speed > 0)
-    line("friction-model term: the shift when --min-speed rises to " + format("%g", s.friction_probe_min_speed) +
+    line("friction-model term: the shift when --min-speed rises to " + core::significant(s.friction_probe_min_speed, 6) +
          " rad/s");
   line("base parameters (identified combinations), nominal -> value +- uncertainty (standard error, velocity-noise "
        "shift, friction-model shift):");
@@ -233,7 +227,7 @@ nlohmann::json fit_details(const Report& report) {
   return {{"gravity_only", s.gravity_only},
           {"rank", s.rank},
           {"columns", s.columns},
-          {"condition_number", number(s.condition_number)},
+          {"condition_number", model::json_number(s.condition_number)},
           {"held_out", s.held_out},
           {"rms_before", vector_json(s.rms_before)},
           {"rms_after", vector_json(s.rms_after)},
@@ -262,8 +256,8 @@ nlohmann::json report_json(const Report& report) {
   j["friction_probe_min_speed"] = s.friction_probe_min_speed;
   j["rank"] = s.rank;
   j["columns"] = s.columns;
-  j["condition_number"] = number(s.condition_number);
-  j["smallest_singular_value"] = number(s.smallest_singular_value);
+  j["condition_number"] = model::json_number(s.condition_number);
+  j["smallest_singular_value"] = model::json_number(s.smallest_singular_value);
   j["held_out"] = s.held_out;
   j["rms_before"] = vector_json(s.rms_before);
   j["rms_after"] = vector_json(s.rms_after);
@@ -279,26 +273,26 @@ nlohmann::json report_json(const Report& report) {
       }
     }
     j["base"].push_back({{"direction", direction},
-                         {"nominal", number(b.nominal)},
-                         {"value", number(b.value)},
-                         {"standard_error", number(b.standard_error)},
-                         {"velocity_noise_shift", number(b.velocity_noise_shift)},
-                         {"friction_shift", number(b.friction_shift)},
-                         {"uncertainty", number(b.uncertainty)},
-                         {"singular_value", number(b.singular_value)},
+                         {"nominal", model::json_number(b.nominal)},
+                         {"value", model::json_number(b.value)},
+                         {"standard_error", model::json_number(b.standard_error)},
+                         {"velocity_noise_shift", model::json_number(b.velocity_noise_shift)},
+                         {"friction_shift", model::json_number(b.friction_shift)},
+                         {"uncertainty", model::json_number(b.uncertainty)},
+                         {"singular_value", model::json_number(b.singular_value)},
                          {"text", combination_text(b, report.body_names)}});
   }
   j["parameters"] = nlohmann::json::array();
   for (const ParameterEstimate& p : s.parameters) {
     j["parameters"].push_back({{"body", report.body_names[static_cast<std::size_t>(p.body)]},
                                {"name", parameter_names()[static_cast<std::size_t>(p.index)]},
-                               {"nominal", number(p.nominal)},
-                               {"value", number(p.value)},
-                               {"standard_error", number(p.standard_error)},
-                               {"velocity_noise_shift", number(p.velocity_noise_shift)},
-                               {"friction_shift", number(p.friction_shift)},
-                               {"uncertainty", number(p.uncertainty)},
-                               {"identifiability", number(p.identifiability)},
+                               {"nominal", model::json_number(p.nominal)},
+                               {"value", model::json_number(p.value)},
+                               {"standard_error", model::json_number(p.standard_error)},
+                               {"velocity_noise_shift", model::json_number(p.velocity_noise_shift)},
+                               {"friction_shift", model::json_number(p.friction_shift)},
+                               {"uncertainty", model::json_number(p.uncertainty)},
+                               {"identifiability", model::json_number(p.identifiability)},
                                {"excitation", excitation(p)}});
   }
   if (s.fit_friction) {

@@ -7,25 +7,19 @@
 #include <map>
 #include <memory>
 
-#include "momentum/detect/events.hpp"
 #include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
+#include "momentum/detect/events.hpp"
+#include "momentum/model/json_number.hpp"
 
 namespace momentum::eval {
 
 namespace {
 
-std::string ms(double seconds) {
-  if (!std::isfinite(seconds)) return "-";
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.1f", seconds * 1e3);
-  return buffer;
-}
+// A delay in seconds as the tables show it: milliseconds with one decimal, "-" for none.
+std::string ms(double seconds) { return std::isfinite(seconds) ? core::fixed(seconds * 1e3, 1) : "-"; }
 
-std::string fixed(double value, int digits) {
-  char buffer[48];
-  std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  return buffer;
-}
+using core::fixed;
 
 std::string percent(int part, int whole) {
   if (whole == 0) return "-";
@@ -46,11 +40,9 @@ DelayStats stats_of(const std::vector<double>& values) {
   return s;
 }
 
-nlohmann::json number_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-
 nlohmann::json stats_json(const DelayStats& s) {
-  return {{"count", s.count},          {"min", number_or_null(s.min)},   {"median", number_or_null(s.median)},
-          {"p95", number_or_null(s.p95)}, {"max", number_or_null(s.max)}, {"mean", number_or_null(s.mean)}};
+  return {{"count", s.count},          {"min", model::json_number(s.min)},   {"median", model::json_number(s.median)},
+          {"p95", model::json_number(s.p95)}, {"max", model::json_number(s.max)}, {"mean", model::json_number(s.mean)}};
 }
 
 }  // namespace
@@ -389,14 +381,14 @@ nlohmann::json to_json(const Score& s) {
   for (const auto& o : s.outcomes)
     j["contacts_detail"].push_back({{"t_onset", o.contact.t_onset}, {"t_end", o.contact.t_end},
                                     {"link", o.contact.link}, {"clamp", o.contact.clamp},
-                                    {"peak_force", number_or_null(o.contact.peak_force)},
-                                    {"peak_torque", number_or_null(o.contact.peak_torque)},
-                                    {"detected", o.detected}, {"delay_s", number_or_null(o.delay)},
+                                    {"peak_force", model::json_number(o.contact.peak_force)},
+                                    {"peak_torque", model::json_number(o.contact.peak_torque)},
+                                    {"detected", o.detected}, {"delay_s", model::json_number(o.delay)},
                                     {"reported_link", o.reported_link},
                                     {"link_at_detection", o.link_at_detection},
                                     {"class", o.event_class.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.event_class)},
-                                    {"force_error_n", number_or_null(o.force_error)},
-                                    {"point_error_m", number_or_null(o.point_error)}});
+                                    {"force_error_n", model::json_number(o.force_error)},
+                                    {"point_error_m", model::json_number(o.point_error)}});
   j["false_alarm_times"] = s.false_alarm_times;
   return j;
 }

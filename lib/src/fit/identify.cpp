@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
+
+#include "momentum/core/number.hpp"
 
 namespace momentum::fit {
 
@@ -63,12 +64,6 @@ bool IdentifyOptions::IsValid(std::string* why) const {
 }
 
 namespace {
-
-std::string number(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", v);
-  return buffer;
-}
 
 // Parameters of the fit that end on a bound that is not physical and that the model needs
 // determined: (index, side). The bristles' sigma0 and sigma1 only when the data determine them:
@@ -157,7 +152,7 @@ std::vector<JointIdentification> identify_friction(const std::vector<JointSeries
         const double bound = side > 0 ? r.bounds.upper[u] : r.bounds.lower[u];
         if (!r.failure.empty()) r.failure += "; ";
         r.failure += std::string(friction::kParameterNames[p]) + " ends on its " + (side > 0 ? "upper" : "lower") +
-                     " bound " + number(bound) +
+                     " bound " + core::significant(bound, 6) +
                      (options.user_bounds[u] ? std::string(" (given by --bounds)")
                                              : " after " + std::to_string(r.widenings) + " widening" +
                                                    (r.widenings == 1 ? "" : "s"));

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include "momentum/core/number.hpp"
+
 namespace momentum::fit {
 
 using Params = friction::Parameters<double>;
@@ -26,9 +28,9 @@ std::string explain(const Problem& problem, const ModelFit& fit, int i) {
       if (p.sigma0 * std::abs(d.dq[k]) * problem.dt[k] / g < 3.0) ++transient;
     }
     why = "bristle dynamics settle within " +
-          format("%.2g", friction::stribeck_level(p, 0.0) / p.sigma0) +
+          core::significant(friction::stribeck_level(p, 0.0) / p.sigma0, 2) +
           " rad of travel; only " + std::to_string(transient) + " of " +
-          std::to_string(fit.metrics.samples) + " samples at " + format("%.4g", rate) +
+          std::to_string(fit.metrics.samples) + " samples at " + core::significant(rate, 4) +
           " Hz see them (near velocity reversals)";
   } else if (i == 5) {
     std::size_t slow = 0;
@@ -50,7 +52,7 @@ std::string explain(const Problem& problem, const ModelFit& fit, int i) {
   if (partner >= 0 && std::abs(strongest) >= 0.95) {
     if (!why.empty()) why += "; ";
     why += std::string("correlated with ") + friction::kParameterNames[partner] + " (" +
-           format("%.3f", strongest) + ")";
+           core::fixed(strongest, 3) + ")";
   }
   return why;
 }
@@ -97,15 +99,16 @@ void annotate_estimates(const Problem& problem, const FitOptions& options, const
       note = "no standard error: " + fit.covariance_note;
     } else if (!(e.uncertainty <= options.identifiability_threshold * reference)) {
       e.identifiable = false;
-      note = "not identifiable: uncertainty " + format("%.3g", e.uncertainty) +
-             (reference > 0 ? format(" = %.3g%% of ", 100.0 * e.uncertainty / reference) +
+      note = "not identifiable: uncertainty " + core::significant(e.uncertainty, 3) +
+             (reference > 0 ? (" = " + core::significant(100.0 * e.uncertainty / reference, 3) + "% of ") +
                                   (i >= 6 && reference < hi - lo ? (i == 6 ? "tau_c" : "tau_s")
                                    : reference == std::abs(e.value) ? "the value" : "the bound interval")
                             : std::string(" at a value of 0"));
       const double sub = std::isfinite(e.discretization_shift) ? std::abs(e.discretization_shift) : 0.0;
       const double vel = std::isfinite(e.velocity_noise_shift) ? std::abs(e.velocity_noise_shift) : 0.0;
       if (sub > e.standard_error && sub >= vel)
-        note += format(", mostly from dynamics faster than the %.4g Hz sampling", 1.0 / std::max(problem.data->median_dt(), 1e-12));
+        note += ", mostly from dynamics faster than the " +
+                core::significant(1.0 / std::max(problem.data->median_dt(), 1e-12), 4) + " Hz sampling";
       else if (vel > e.standard_error)
         note += ", mostly from the velocity noise";
       else
@@ -116,7 +119,7 @@ void annotate_estimates(const Problem& problem, const FitOptions& options, const
     if (e.at_bound) {
       const std::string where = e.at_bound < 0 ? "lower" : "upper";
       const std::string bound_note = "at its " + where + " bound " +
-                                     format("%.6g", e.at_bound < 0 ? lo : hi) +
+                                     core::significant(e.at_bound < 0 ? lo : hi, 6) +
                                      " (the best fit is on or beyond it; widen --bounds to see)";
       note = note.empty() ? bound_note : bound_note + "; " + note;
     }

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "momentum/core/number.hpp"
+
 namespace momentum::fit {
 
 using Params = friction::Parameters<double>;
@@ -265,8 +267,8 @@ Eigen::MatrixXd polish_fit(const Problem& problem, const Problem& search, const 
     fit.polish_jacobian_evaluations += static_cast<std::uint64_t>(passes);
     fit.polish_residual_evaluations += plain;
     fit.evaluations += static_cast<std::uint64_t>(passes) + plain;
-    fit.polish_message += "; on all " + std::to_string(problem.scored) + " samples: cost " + format("%.6g", before) +
-                          " -> " + format("%.6g", std::min(before, after)) + " Nm^2 in " + std::to_string(passes) +
+    fit.polish_message += "; on all " + std::to_string(problem.scored) + " samples: cost " + core::significant(before, 6) +
+                          " -> " + core::significant(std::min(before, after), 6) + " Nm^2 in " + std::to_string(passes) +
                           " passes with derivatives";
   }
   if (!have_jacobian) have_jacobian = jacobian_at(problem, x, problem.scale, final_residuals, jacobian);

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <unordered_map>
 
 namespace momentum::fit {
@@ -174,12 +173,6 @@ FitMetrics metrics_of(const Problem& problem, const Params& p) {
   m.rms = n ? std::sqrt(sse / static_cast<double>(n)) : 0.0;
   m.r_squared = sst > 0 ? 1.0 - sse / sst : (sse == 0 ? 1.0 : 0.0);
   return m;
-}
-
-std::string format(const char* fmt, double a) {
-  char buffer[96];
-  std::snprintf(buffer, sizeof buffer, fmt, a);
-  return buffer;
 }
 
 }  // namespace momentum::fit

@@ -4,6 +4,7 @@
 #include <cstdarg>
 #include <cstdio>
 
+#include "momentum/model/json_number.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/version.hpp"
 
@@ -13,11 +14,9 @@ namespace {
 
 using nlohmann::json;
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
 json metrics_json(const FitMetrics& m) {
-  return {{"samples", m.samples}, {"rms", number(m.rms)}, {"max_abs", number(m.max_abs)},
-          {"r_squared", number(m.r_squared)}, {"cost", number(m.cost)}};
+  return {{"samples", m.samples}, {"rms", model::json_number(m.rms)}, {"max_abs", model::json_number(m.max_abs)},
+          {"r_squared", model::json_number(m.r_squared)}, {"cost", model::json_number(m.cost)}};
 }
 
 json model_json(const ModelFit& m) {
@@ -28,11 +27,11 @@ json model_json(const ModelFit& m) {
     const auto& e = m.estimates[static_cast<std::size_t>(i)];
     if (!e.used) continue;
     parameters[friction::kParameterNames[i]] = {
-        {"value", number(e.value)},
-        {"standard_error", number(e.standard_error)},
-        {"uncertainty", number(e.uncertainty)},
-        {"discretization_shift", number(e.discretization_shift)},
-        {"velocity_noise_shift", number(e.velocity_noise_shift)},
+        {"value", model::json_number(e.value)},
+        {"standard_error", model::json_number(e.standard_error)},
+        {"uncertainty", model::json_number(e.uncertainty)},
+        {"discretization_shift", model::json_number(e.discretization_shift)},
+        {"velocity_noise_shift", model::json_number(e.velocity_noise_shift)},
         {"free", e.free},
         {"at_bound", e.at_bound < 0 ? json("lower") : e.at_bound > 0 ? json("upper") : json(nullptr)},
         {"identifiable", e.identifiable},
@@ -44,15 +43,15 @@ json model_json(const ModelFit& m) {
   json matrix = json::array();
   for (Eigen::Index a = 0; a < m.correlation.rows(); ++a) {
     json row = json::array();
-    for (Eigen::Index b = 0; b < m.correlation.cols(); ++b) row.push_back(number(m.correlation(a, b)));
+    for (Eigen::Index b = 0; b < m.correlation.cols(); ++b) row.push_back(model::json_number(m.correlation(a, b)));
     matrix.push_back(row);
   }
   out["correlation"] = {{"parameters", names}, {"matrix", matrix}};
   out["metrics"] = metrics_json(m.metrics);
   out["evaluations"] = m.evaluations;
   out["seconds"] = m.seconds;
-  out["global"] = {{"cost", number(m.global.cost)},
-                   {"rms", number(m.global_metrics.rms)},
+  out["global"] = {{"cost", model::json_number(m.global.cost)},
+                   {"rms", model::json_number(m.global_metrics.rms)},
                    {"evaluations", m.global.evaluations},
                    {"generations", m.global.generations},
                    {"runs", m.global.runs},
@@ -68,8 +67,8 @@ json model_json(const ModelFit& m) {
                    {"jacobian_evaluations", m.polish_jacobian_evaluations},
                    {"message", m.polish_message}};
   out["covariance"] = {{"ok", m.covariance_ok},
-                       {"condition_number", number(m.condition_number)},
-                       {"autocorrelation_factor", number(m.autocorrelation_factor)},
+                       {"condition_number", model::json_number(m.condition_number)},
+                       {"autocorrelation_factor", model::json_number(m.autocorrelation_factor)},
                        {"note", m.covariance_note}};
   return out;
 }
@@ -164,14 +163,14 @@ json report_json(const FitReport& r) {
   for (const auto& j : r.joints) {
     json entry;
     entry["joint"] = j.fit.joint;
-    entry["sample_rate_hz"] = number(j.sample_rate_hz);
-    entry["velocity_noise"] = number(j.velocity_noise);
-    entry["min_speed"] = number(j.min_speed);
+    entry["sample_rate_hz"] = model::json_number(j.sample_rate_hz);
+    entry["velocity_noise"] = model::json_number(j.velocity_noise);
+    entry["min_speed"] = model::json_number(j.min_speed);
     entry["excluded_slow_samples"] = j.excluded_slow;
     json joint_bounds = json::object();
     for (int i = 0; i < kParameterCount; ++i)
-      joint_bounds[friction::kParameterNames[i]] = {number(j.bounds.lower[static_cast<std::size_t>(i)]),
-                                                    number(j.bounds.upper[static_cast<std::size_t>(i)])};
+      joint_bounds[friction::kParameterNames[i]] = {model::json_number(j.bounds.lower[static_cast<std::size_t>(i)]),
+                                                    model::json_number(j.bounds.upper[static_cast<std::size_t>(i)])};
     entry["bounds"] = joint_bounds;
     entry["widenings"] = j.widenings;
     entry["failure"] = j.failure;
@@ -181,11 +180,11 @@ json report_json(const FitReport& r) {
     entry["asymmetric"] = j.fit.model.asymmetric;
     if (j.residual_split.computed)
       entry["residual_split"] = {{"samples", j.residual_split.samples},
-                                 {"residual_rms", number(j.residual_split.residual_rms)},
-                                 {"position_fraction", number(j.residual_split.position_fraction)},
-                                 {"velocity_fraction", number(j.residual_split.velocity_fraction)},
-                                 {"explained_rms", number(j.residual_split.explained_rms)},
-                                 {"signal_rms", number(j.residual_split.signal_rms)},
+                                 {"residual_rms", model::json_number(j.residual_split.residual_rms)},
+                                 {"position_fraction", model::json_number(j.residual_split.position_fraction)},
+                                 {"velocity_fraction", model::json_number(j.residual_split.velocity_fraction)},
+                                 {"explained_rms", model::json_number(j.residual_split.explained_rms)},
+                                 {"signal_rms", model::json_number(j.residual_split.signal_rms)},
                                  {"position_features", j.residual_split.position_features},
                                  {"position_dependent", j.residual_split.position_dependent}};
     else
@@ -199,9 +198,9 @@ json report_json(const FitReport& r) {
     else
       entry["current"] = nullptr;
     if (j.mirror) {
-      entry["mirror"] = {{"samples", j.mirror->samples}, {"excluded", j.mirror->excluded}, {"rms", number(j.mirror->rms)}, {"max_abs", number(j.mirror->max_abs)}};
+      entry["mirror"] = {{"samples", j.mirror->samples}, {"excluded", j.mirror->excluded}, {"rms", model::json_number(j.mirror->rms)}, {"max_abs", model::json_number(j.mirror->max_abs)}};
       if (j.mirror_static)
-        entry["mirror"]["static_rms"] = number(j.mirror_static->rms);
+        entry["mirror"]["static_rms"] = model::json_number(j.mirror_static->rms);
     }
     entry["seconds"] = j.fit.seconds;
     joints.push_back(entry);
@@ -363,9 +362,9 @@ json provenance_details(const FitReport& r, const std::string& window) {
   json metrics = json::array();
   for (const auto& j : r.joints)
     metrics.push_back({{"joint", j.fit.joint},
-                       {"rms", number(j.fit.model.metrics.rms)},
-                       {"max_abs", number(j.fit.model.metrics.max_abs)},
-                       {"r_squared", number(j.fit.model.metrics.r_squared)},
+                       {"rms", model::json_number(j.fit.model.metrics.rms)},
+                       {"max_abs", model::json_number(j.fit.model.metrics.max_abs)},
+                       {"r_squared", model::json_number(j.fit.model.metrics.r_squared)},
                        {"samples", j.fit.model.metrics.samples}});
   d["joints"] = metrics;
   return d;

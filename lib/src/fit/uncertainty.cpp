@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "momentum/core/number.hpp"
 #include "momentum/core/random.hpp"
 
 namespace momentum::fit {
@@ -309,7 +310,7 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
       if (!constant.empty())
         fit.covariance_note = "rank-deficient: covariance of the other parameters with the undetermined ones held";
       else if (!(fit.condition_number < 1e6))
-        fit.covariance_note = "ill-conditioned (condition number " + format("%.3g", fit.condition_number) +
+        fit.covariance_note = "ill-conditioned (condition number " + core::significant(fit.condition_number, 3) +
                               "): standard errors are first-order estimates at best";
     } else {
       fit.covariance_note = "the covariance could not be computed (the Jacobian is numerically singular)";

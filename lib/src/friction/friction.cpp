@@ -1,10 +1,10 @@
 #include "momentum/friction/friction.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <set>
 #include <string>
 
+#include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 
 namespace momentum::friction {
@@ -13,12 +13,6 @@ namespace {
 bool fail(std::string* why, std::string message) {
   if (why) *why = std::move(message);
   return false;
-}
-
-std::string number(double value) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
 }
 
 // Parameters each model reads, as indices into the array order.
@@ -77,35 +71,35 @@ bool IsValid(Kind kind, const Parameters<double>& p, std::string* why) {
   for (int i : checked) {
     if (!std::isfinite(x[i])) return fail(why, std::string(kParameterNames[i]) + " is not finite");
   }
-  if (p.sigma2 < 0) return fail(why, "sigma2 = " + number(p.sigma2) + " is negative");
+  if (p.sigma2 < 0) return fail(why, "sigma2 = " + core::significant(p.sigma2, 17) + " is negative");
   if (kind == Kind::coulomb_viscous) {
-    if (p.tau_c < 0) return fail(why, "tau_c = " + number(p.tau_c) + " is negative");
+    if (p.tau_c < 0) return fail(why, "tau_c = " + core::significant(p.tau_c, 17) + " is negative");
     if (std::abs(p.delta_c) > p.tau_c)
-      return fail(why, "|delta_c| = " + number(std::abs(p.delta_c)) + " exceeds tau_c = " + number(p.tau_c) +
+      return fail(why, "|delta_c| = " + core::significant(std::abs(p.delta_c), 17) + " exceeds tau_c = " + core::significant(p.tau_c, 17) +
                            " (a negative level in one direction)");
     return true;
   }
-  if (!(p.tau_c > 0)) return fail(why, "tau_c = " + number(p.tau_c) + " is not positive");
-  if (!(p.tau_s > 0)) return fail(why, "tau_s = " + number(p.tau_s) + " is not positive");
+  if (!(p.tau_c > 0)) return fail(why, "tau_c = " + core::significant(p.tau_c, 17) + " is not positive");
+  if (!(p.tau_s > 0)) return fail(why, "tau_s = " + core::significant(p.tau_s, 17) + " is not positive");
   if (!(std::abs(p.delta_c) < p.tau_c))
-    return fail(why, "|delta_c| = " + number(std::abs(p.delta_c)) + " is not below tau_c = " + number(p.tau_c) +
+    return fail(why, "|delta_c| = " + core::significant(std::abs(p.delta_c), 17) + " is not below tau_c = " + core::significant(p.tau_c, 17) +
                          " (the level of one direction would not be positive)");
   if (!(std::abs(p.delta_s) < p.tau_s))
-    return fail(why, "|delta_s| = " + number(std::abs(p.delta_s)) + " is not below tau_s = " + number(p.tau_s) +
+    return fail(why, "|delta_s| = " + core::significant(std::abs(p.delta_s), 17) + " is not below tau_s = " + core::significant(p.tau_s, 17) +
                          " (the level of one direction would not be positive)");
-  if (!(p.w_s > 0)) return fail(why, "w_s = " + number(p.w_s) + " is not positive");
+  if (!(p.w_s > 0)) return fail(why, "w_s = " + core::significant(p.w_s, 17) + " is not positive");
   if (kind == Kind::lugre) {
-    if (!(p.sigma0 > 0)) return fail(why, "sigma0 = " + number(p.sigma0) + " is not positive");
-    if (p.sigma1 < 0) return fail(why, "sigma1 = " + number(p.sigma1) + " is negative");
+    if (!(p.sigma0 > 0)) return fail(why, "sigma0 = " + core::significant(p.sigma0, 17) + " is not positive");
+    if (p.sigma1 < 0) return fail(why, "sigma1 = " + core::significant(p.sigma1, 17) + " is negative");
   }
   return true;
 }
 
 bool Options::IsValid(std::string* why) const {
   if (!std::isfinite(velocity_deadband) || velocity_deadband < 0)
-    return fail(why, "velocity_deadband = " + number(velocity_deadband) + " is not a finite value >= 0");
+    return fail(why, "velocity_deadband = " + core::significant(velocity_deadband, 17) + " is not a finite value >= 0");
   if (!std::isfinite(velocity_cutoff_hz) || velocity_cutoff_hz < 0)
-    return fail(why, "velocity_cutoff_hz = " + number(velocity_cutoff_hz) + " is not a finite value >= 0");
+    return fail(why, "velocity_cutoff_hz = " + core::significant(velocity_cutoff_hz, 17) + " is not a finite value >= 0");
   return true;
 }
 

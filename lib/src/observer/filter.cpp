@@ -2,7 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+
+#include "momentum/core/number.hpp"
 
 namespace momentum::observer {
 namespace {
@@ -55,11 +56,7 @@ LowPass low_pass(const Phi& f, double kappa) {
 }
 
 bool fail(std::string* why, const char* name, double value, const char* condition) {
-  if (why) {
-    char buffer[128];
-    std::snprintf(buffer, sizeof buffer, "%s = %.17g is not %s", name, value, condition);
-    *why = buffer;
-  }
+  if (why) *why = std::string(name) + " = " + core::significant(value, 17) + " is not " + condition;
   return false;
 }
 

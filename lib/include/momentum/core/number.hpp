@@ -30,6 +30,15 @@ std::string short_number(double value);
 // short_number's six.
 std::string significant(double value, int digits);
 
+// `value` with `decimals` (0 to 17) digits after the decimal point, exactly as printf's %.*f
+// writes it ("0.3", "12.000", "-0.0", "inf", "nan"): for columns of fixed precision (delays
+// in ms, percentages). Magnitudes up to 1e300 fit; larger ones are cut short.
+std::string fixed(double value, int decimals);
+
+// fixed with a sign always, exactly as printf's %+.*f ("+12.5", "-0.3", "+0.0", "+inf"): for
+// changes, where the direction is the news.
+std::string signed_fixed(double value, int decimals);
+
 // A time of `ns` nanoseconds as seconds with a decimal point, allocating nothing (a capture's
 // every frame): 6 decimals when it is a whole number of microseconds (candump's "%010lu.%06lu"
 // of can-utils lib.c), else 9; the seconds padded with zeros to at least `second_digits`

@@ -166,7 +166,4 @@ bool jacobian_at(const Problem& problem, const std::vector<double>& x,
 // Metrics of parameters p (physical units) on the counted samples of the problem.
 FitMetrics metrics_of(const Problem& problem, const friction::Parameters<double>& p);
 
-// printf of one number, for notes and messages (at most 95 characters).
-std::string format(const char* fmt, double a);
-
 }  // namespace momentum::fit
