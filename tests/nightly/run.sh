@@ -35,8 +35,12 @@ day() {  # name seed1 seed2 seed3 seed4 [sim options for log 1 | 2]...
 night() {  # label day
   local label=$1 day=$2 before after status
   before=$(sha256sum < "$profile")
+  # --max-increase 100: these days are 4 logs of 30 s, so each slow-state threshold rests on
+  # about 5 s of slow motion (5 peaks) and moves by half between clean days (joint 2: 8.7 Nm
+  # after night 1, 13.2 Nm on night 5). The default 50% is for a robot's real days; here the
+  # nights' paths are tested, not the sampling noise of the slow state.
   "$script" -p "$profile" --logs "$tmp/days/$day" --backups "$backups" --margin-percent 30 --seed 1 \
-    > "$tmp/out" 2>&1
+    --max-increase 100 > "$tmp/out" 2>&1
   status=$?
   after=$(sha256sum < "$profile")
   local verdict="kept"
