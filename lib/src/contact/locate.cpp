@@ -306,7 +306,7 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     int body = 0;
     double cost = 0;
     int unknowns = 0;
-    std::vector<Eigen::Vector3d> points;
+    const std::vector<Eigen::Vector3d>* points = nullptr;  // the body's candidates_, made once
     std::vector<double> costs;
     std::size_t best = 0;
   };
@@ -318,10 +318,10 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     if (body > first_link - 1 && body + 1 != signature_link && seen_unknowns(body) >= nq) continue;
     BodyFit f;
     f.body = body;
-    f.points = candidates_[static_cast<std::size_t>(body)].points;
-    f.costs.resize(f.points.size());
-    for (std::size_t p = 0; p < f.points.size(); ++p) {
-      f.costs[p] = point_cost(kin, fit, body, f.points[p]);
+    f.points = &candidates_[static_cast<std::size_t>(body)].points;
+    f.costs.resize(f.points->size());
+    for (std::size_t p = 0; p < f.points->size(); ++p) {
+      f.costs[p] = point_cost(kin, fit, body, (*f.points)[p]);
       if (f.costs[p] < f.costs[f.best]) f.best = p;
     }
     f.cost = f.costs[f.best];
@@ -356,12 +356,12 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   const double dof = static_cast<double>(fit.size()) * nq - f.unknowns;
   out.chi2 = dof > 0 ? f.cost / dof : 0;
   if (out.point_determined) {
-    out.point = f.points[f.best];
+    out.point = (*f.points)[f.best];
     // The points whose cost is within one (scaled) unit of the best: their largest distance
     // from it is a 68% radius; at least half the spacing of the candidates.
     double spread = 0.5 * candidates_[static_cast<std::size_t>(f.body)].spacing;
-    for (std::size_t p = 0; p < f.points.size(); ++p)
-      if (f.costs[p] <= f.cost + scale) spread = std::max(spread, (f.points[p] - out.point).norm());
+    for (std::size_t p = 0; p < f.points->size(); ++p)
+      if (f.costs[p] <= f.cost + scale) spread = std::max(spread, ((*f.points)[p] - out.point).norm());
     out.point_sd = spread;
   } else {
     out.point = 0.5 * (seg.from + seg.to);
