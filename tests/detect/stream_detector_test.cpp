@@ -58,6 +58,7 @@ TEST(StreamDetector, EventsSummaryAndAThresholdPerJoint) {
   EXPECT_TRUE(summary.finished);
   EXPECT_FALSE(summary.interrupted);
   EXPECT_EQ(summary.rows, 5u);
+  EXPECT_NEAR(summary.seconds, 0.04, 1e-12);  // four steps of 0.01 s
   EXPECT_EQ(summary.events, 1u);
   EXPECT_EQ(summary.collisions, 1u);
   EXPECT_TRUE(summary.rest_rows.empty());  // no dq columns
@@ -67,7 +68,7 @@ TEST(StreamDetector, EventsSummaryAndAThresholdPerJoint) {
   EXPECT_NE(text.find(",0.01,1,1,onset,1,,,5,0\n"), std::string::npos) << text;
   EXPECT_NE(text.find(",0.01,2,1;2,end,1,0.03,release,5,3\n"), std::string::npos) << text;
   const std::string stats = format_stream_detector_stats(summary, "mo-detect");
-  EXPECT_EQ(stats.rfind("mo-detect: 5 rows, 0 bad rows skipped, 1 events\n", 0), 0u) << stats;
+  EXPECT_EQ(stats.rfind("mo-detect: 5 rows over 0.04 s, 0 bad rows skipped, 1 events\n", 0), 0u) << stats;
   std::remove(input.c_str());
   std::remove(output.c_str());
 }

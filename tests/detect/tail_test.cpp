@@ -163,6 +163,8 @@ TEST(Calibrator, RateRuleThresholdHoldsItsFalseAlarmRateOnFreshData) {
     // The level, or the largest peak + margin when that is higher (and the rate lower).
     if (basis.from_tail) EXPECT_NEAR(basis.per_hour, per_hour, 1e-9);
     else EXPECT_LT(basis.per_hour, per_hour);
+    // One joint, one state: what the whole calibration stands for is that state's rate.
+    EXPECT_NEAR(result.expected_false_alarms_per_hour(), basis.per_hour, 1e-12);
     Detector detector(result.thresholds, {}, false);
     const long fresh = static_cast<long>(40 * 3600 / dt);
     long events = 0;
@@ -202,4 +204,31 @@ TEST(DriftingBaseline, FollowsSlowDriftAndSeesAFastPush) {
   EXPECT_NEAR(push_peak - 0.3, 4.0 * drift_gain(1.0, 0.3), 0.1);
   EXPECT_NEAR(drift_gain(1.0, 0.3), 1.0 / 0.3 * (1 - std::exp(-0.3)), 1e-12);
   EXPECT_EQ(drift_gain(0, 0.3), 1.0);
+}
+
+TEST(CalibrationResult, ExpectedFalseAlarmsWeighEachStateByItsShareOfTheTime) {
+  // Joint 1: 3000 s moving at 0.02 per hour, 600 s slow with no tail fitted (the target rate
+  // 0.05 stands), 400 s at rest at 0.001. Joint 2 has no slow or rest threshold: its 1000 s of
+  // slow rows count at its moving rate 0.04.
+  CalibrationResult r;
+  r.false_alarms_per_hour = 0.05;
+  JointCalibration one, two;
+  one.moving.seconds = 3000;
+  one.moving_basis.per_hour = 0.02;
+  one.slow.seconds = 600;
+  one.rest.seconds = 400;
+  one.rest_basis.per_hour = 0.001;
+  two.moving.seconds = 3000;
+  two.moving_basis.per_hour = 0.04;
+  two.slow.seconds = 1000;
+  JointThreshold t1, t2;
+  t1.moving = t2.moving = 1;
+  t1.slow = 2;
+  t1.rest = 0.5;
+  r.joints = {one, two};
+  r.thresholds.joints = {t1, t2};
+  const double joint1 = (0.02 * 3000 + 0.05 * 600 + 0.001 * 400) / 4000;
+  const double joint2 = 0.04;
+  EXPECT_NEAR(r.expected_false_alarms_per_hour(), joint1 + joint2, 1e-15);
+  EXPECT_TRUE(std::isnan(CalibrationResult{}.expected_false_alarms_per_hour()));
 }

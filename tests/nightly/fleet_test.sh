@@ -135,6 +135,9 @@ for name in ("arm-a", "arm-c"):
     assert r["profile_version"]["sha256_after"] != r["profile_version"]["sha256_before"]
     assert r["profile_version"]["changes_after"] > r["profile_version"]["changes_before"]
     assert r["check_events"]["candidate"] == 0, r
+    # The candidate's stated false alarms over the check part's hours (2 logs of 30 s: 1 checked).
+    ce = r["check_events"]
+    assert 0 < ce["expected"] < 0.05 and abs(ce["hours"] - 30 / 3600) < 1e-3, ce
 r = by["arm-b"]
 assert r["outcome"] == "refused" and r["exit_status"] == 1, r
 assert "contact in the calibration logs" in r["reason"], r["reason"]

@@ -259,6 +259,29 @@ bool CalibrationResult::any_contact() const {
   return false;
 }
 
+double CalibrationResult::expected_false_alarms_per_hour() const {
+  double total = 0;
+  bool any = false;
+  for (std::size_t j = 0; j < joints.size() && j < thresholds.joints.size(); ++j) {
+    const JointCalibration& c = joints[j];
+    const JointThreshold& T = thresholds.joints[j];
+    const MagnitudeSummary& rest = T.rest_absolute ? c.rest_absolute : c.rest;
+    const double seconds = c.moving.seconds + c.slow.seconds + rest.seconds;
+    if (!(seconds > 0)) continue;
+    any = true;
+    auto rate = [&](const ThresholdBasis& basis) {
+      return std::isfinite(basis.per_hour) ? basis.per_hour : false_alarms_per_hour;
+    };
+    // A state without a threshold of its own is judged (and was calibrated) with the next
+    // rule down, so its time counts at that rule's rate.
+    const double moving = rate(c.moving_basis);
+    const double slow = T.slow ? rate(c.slow_basis) : moving;
+    const double at_rest = T.rest ? rate(c.rest_basis) : slow;
+    total += (moving * c.moving.seconds + slow * c.slow.seconds + at_rest * rest.seconds) / seconds;
+  }
+  return any ? total : NAN;
+}
+
 Calibrator::Calibrator(Signal signal, std::size_t joints, CalibrationOptions options)
     : signal_(signal), options_(std::move(options)) {
   std::string why;
@@ -528,6 +551,10 @@ std::string format_calibration_report(const CalibrationResult& r) {
       out += "# joint " + std::to_string(j + 1) + " envelope: " + core::significant(T.envelope->a, 6) + " + " + core::significant(T.envelope->b, 6) +
              " |dq| Nm (mean over the moving rows " + core::significant(c.envelope_mean, 6) + " Nm, constant " + core::significant(T.moving, 6) + " Nm)\n";
   }
+  const double expected = r.expected_false_alarms_per_hour();
+  if (std::isfinite(expected))
+    out += "# " + sig + " false alarms expected: " + core::significant(expected, 3) +
+           " per hour of logs like these (every joint and state at its rate and share of the time)\n";
   for (const auto& note : r.notes) out += "# note: " + note + "\n";
   for (const auto& warning : r.warnings) out += "# warning: " + warning + "\n";
   return out;

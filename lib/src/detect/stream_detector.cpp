@@ -95,8 +95,8 @@ std::string format_stream_detector_stats(const StreamDetectorSummary& summary, s
   const std::string name(tool);
   char line[256];
   std::string text;
-  std::snprintf(line, sizeof line, "%s: %" PRIu64 " rows, %" PRIu64 " bad rows skipped, %" PRIu64 " events%s\n",
-                name.c_str(), summary.rows, summary.rows_skipped, summary.events,
+  std::snprintf(line, sizeof line, "%s: %" PRIu64 " rows over %s s, %" PRIu64 " bad rows skipped, %" PRIu64 " events%s\n",
+                name.c_str(), summary.rows, core::significant(summary.seconds, 6).c_str(), summary.rows_skipped, summary.events,
                 summary.interrupted ? " (interrupted)" : "");
   text += line;
   if (!summary.rest_rows.empty()) {
@@ -252,6 +252,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
         in->reject_row(std::isnan(t) ? "time is nan" : "time goes backwards");
         continue;
       }
+      if (std::isfinite(t_prev)) summary.seconds += t - t_prev;
       t_prev = t;
       for (std::size_t j = 0; j < n; ++j) x[j] = row[ix[j]];
       for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];

@@ -9,17 +9,24 @@
 #  1. takes the day's logs (*.csv, *.bin in --logs, or the files given), in name order, and
 #     splits them: the 1st, 3rd, 5th ... fit and calibrate, the 2nd, 4th ... check. At least
 #     two logs are needed.
-#  2. observes every log with the profile in place (mo-observe --strict: a broken log stops
-#     the night, the profile stays);
-#  3. fits friction on the calibration part (mo-lugre-fit); when the fit is refused (worse
+#  2. identifies corrections to the URDF's inertial parameters on the calibration part
+#     (mo-dynfit, its held-out check inside); when the fit fails or explains the held-out data
+#     worse than the corrections in place, those are kept (--no-dynfit skips the step);
+#  3. observes the check part with the profile in place, and the calibration part with the
+#     corrected model (mo-observe --strict: a broken log stops the night, the profile stays);
+#  4. fits friction on the calibration part (mo-lugre-fit); when the fit is refused (worse
 #     than the friction in place) or fails, the current friction is kept;
-#  4. observes the calibration part again with the candidate's friction and calibrates the
+#  5. observes the calibration part again with the candidate's friction and calibrates the
 #     thresholds (mo-calibrate --reject-contact: a log that looks like it holds a contact
 #     stops the night, the profile stays);
-#  5. checks the candidate on the check part: mo-detect must find no event at all (the day
-#     was collision-free, or the logs are not fit to calibrate on), no more than the profile
-#     in place finds there, and no threshold may grow by more than --max-increase percent;
-#  6. installs the candidate by renaming it over the profile, after a dated backup
+#  6. checks the candidate on the check part. Its events there must be no more than its
+#     calibration stands for: mo-calibrate states the false alarms per hour its thresholds
+#     stand for, and the candidate is refused when that rate, over the hours of the check
+#     part, makes its count of events less likely than --check-level (default 0.01; on a few
+#     minutes of logs, any event is refused: the day held a collision, or its logs are not fit
+#     to calibrate on). It must raise no more events than the profile in place raises there,
+#     and no threshold may grow by more than --max-increase percent;
+#  7. installs the candidate by renaming it over the profile, after a dated backup
 #     (--backups, the newest --keep kept).
 # Exit status: 0 when the new profile was installed (or would be, with --dry-run); 1 when the
 # night failed, had nothing to go on, or the candidate was refused (the old profile stays; see
@@ -38,7 +45,8 @@
 #   outcome          "installed": the candidate replaced the profile;
 #                    "dry-run": it would have (--dry-run);
 #                    "refused": a candidate was made and judged unfit (a contact in the
-#                      calibration logs, events on the check logs, thresholds grown too much);
+#                      calibration logs, more events on the check logs than its rate stands
+#                      for, thresholds grown too much);
 #                    "kept": nothing to go on (fewer than 2 logs) or another run holds the lock;
 #                    "failed": the night could not run (a tool missing, a broken log, a write
 #                      failed); the profile stays in every case but "installed"
@@ -53,8 +61,9 @@
 #                    none; "envelope": {"a", "b"} per joint), {} when it has none
 #   thresholds_after   the candidate's, as calibrated this night (also when refused), null when
 #                    the night did not get that far
-#   check_events     events on the check logs, {"candidate": N, "in_place": N or null}, when
-#                    the check ran
+#   check_events     events on the check logs, {"candidate": N, "in_place": N or null,
+#                    "expected": the candidate's stated false alarms over the check part's
+#                    "hours"}, when the check ran
 #   backup           the replaced profile's backup (installed only)
 #   started, finished, duration_s   UTC, ISO 8601; seconds
 set -uo pipefail
@@ -71,6 +80,11 @@ usage: nightly-recalibrate.sh -p PROFILE [--logs DIR | LOG...] [options]
   --margin-percent P      safety margin in percent
   --envelope              also calibrate velocity envelopes
   --max-increase P        refuse a candidate whose threshold grows by more than P% (default 50)
+  --check-level P         refuse a candidate whose events on the check part are less likely
+                          than P under its stated false-alarm rate (default 0.01)
+  --no-dynfit             keep the inertial parameters in place (no mo-dynfit step)
+  --torque-held           the logs' motor torque was held between samples (mo-sim's drives;
+                          passed to mo-dynfit)
   --no-friction-fit       keep the friction in place, recalibrate the thresholds only
   --seed N                seed of the friction fit (default 1)
   -j, --jobs N            logs observed at a time (default 1: a fleet runs one night per core)
@@ -83,7 +97,8 @@ EOF
 }
 
 profile="" logs_dir="" backups="" keep=30 log_file="" max_increase=50 seed=1
-dry_run=0 fit_friction=1 json_file="" robot="" jobs=1
+dry_run=0 fit_friction=1 fit_dynamics=1 json_file="" robot="" jobs=1 check_level=0.01
+dynfit_options=()
 calibrate_options=()
 logs=()
 while (($#)); do
@@ -97,6 +112,9 @@ while (($#)); do
     --margin-percent) calibrate_options+=(--margin-percent "${2:?}"); shift 2 ;;
     --envelope) calibrate_options+=(--envelope); shift ;;
     --max-increase) max_increase=${2:?}; shift 2 ;;
+    --check-level) check_level=${2:?}; shift 2 ;;
+    --no-dynfit) fit_dynamics=0; shift ;;
+    --torque-held) dynfit_options+=(--torque-held); shift ;;
     --no-friction-fit) fit_friction=0; shift ;;
     --seed) seed=${2:?}; shift 2 ;;
     -j|--jobs) jobs=${2:?}; shift 2 ;;
@@ -110,6 +128,10 @@ while (($#)); do
 done
 if ! [[ $jobs =~ ^[1-9][0-9]*$ ]]; then
   echo "nightly-recalibrate: --jobs takes a number of logs (>= 1)" >&2
+  exit 2
+fi
+if ! awk -v p="$check_level" 'BEGIN { exit !(p ~ /^[0-9.eE+-]+$/ && p + 0 > 0 && p + 0 < 1) }'; then
+  echo "nightly-recalibrate: --check-level takes a probability between 0 and 1" >&2
   exit 2
 fi
 if [[ -z $profile || ! -f $profile ]]; then
@@ -231,7 +253,13 @@ line = {
     "thresholds_after": after_thresholds,
 }
 if e.get("NIGHTLY_NEW_EVENTS"):
-    line["check_events"] = {"candidate": number("NIGHTLY_NEW_EVENTS"), "in_place": number("NIGHTLY_OLD_EVENTS")}
+    def real(name):
+        try:
+            return float(e.get(name, ""))
+        except ValueError:
+            return None
+    line["check_events"] = {"candidate": number("NIGHTLY_NEW_EVENTS"), "in_place": number("NIGHTLY_OLD_EVENTS"),
+                            "expected": real("NIGHTLY_EXPECTED_EVENTS"), "hours": real("NIGHTLY_CHECK_HOURS")}
 if e.get("NIGHTLY_BACKUP") and outcome == "installed":
     line["backup"] = e["NIGHTLY_BACKUP"]
 started, finished = float(e["NIGHTLY_STARTED_S"]), float(e["NIGHTLY_FINISHED_S"])
@@ -241,6 +269,7 @@ print(json.dumps(line, separators=(", ", ": ")))
 EOF
 )
 outcome="" reason="" calibrated=0 backup="" new_events="" old_events="" locked=0 json_ready=0
+expected_events="" check_hours=""
 started=$(date -u +%Y-%m-%dT%H:%M:%SZ) started_s=$(date +%s.%N)
 if [[ -n $json_file ]]; then
   command -v python3 > /dev/null || { echo "nightly-recalibrate: --json needs python3" >&2; exit 2; }
@@ -262,6 +291,7 @@ write_json() {  # exit-status
   NIGHTLY_BEFORE=$before_info NIGHTLY_PROFILE=$profile NIGHTLY_AFTER_FROM=$after_from NIGHTLY_STATUS=$1 \
     NIGHTLY_OUTCOME=$outcome NIGHTLY_REASON=$reason NIGHTLY_ROBOT=$robot NIGHTLY_DAY=${logs_dir:+$(basename "$logs_dir")} \
     NIGHTLY_LOGS=${#logs[@]} NIGHTLY_NEW_EVENTS=$new_events NIGHTLY_OLD_EVENTS=$old_events NIGHTLY_BACKUP=$backup \
+    NIGHTLY_EXPECTED_EVENTS=$expected_events NIGHTLY_CHECK_HOURS=$check_hours \
     NIGHTLY_LOG=$log_file NIGHTLY_STARTED=$started NIGHTLY_STARTED_S=$started_s \
     NIGHTLY_FINISHED=$(date -u +%Y-%m-%dT%H:%M:%SZ) NIGHTLY_FINISHED_S=$(date +%s.%N) \
     python3 -c "$json_program" line >&8 ||
@@ -335,7 +365,9 @@ fi
 locked=1
 
 say "---- nightly recalibration of $profile from ${#logs[@]} logs"
-for tool in mo-observe mo-lugre-fit mo-calibrate mo-detect; do
+tools=(mo-observe mo-lugre-fit mo-calibrate mo-detect)
+((fit_dynamics)) && tools+=(mo-dynfit)
+for tool in "${tools[@]}"; do
   command -v "$tool" > /dev/null || keep_old "$tool not found on PATH"
 done
 ((${#logs[@]} >= 2)) || keep_old --kept "need at least 2 logs (one to calibrate on, one to check), got ${#logs[@]}"
@@ -346,6 +378,7 @@ replacement() { printf '%s' "$1" | sed 's/[\/&|]/\\&/g'; }
 {
   for i in "${!logs[@]}"; do
     echo "s|$(pattern "$work/old-$i.bin")|$(replacement "${logs[i]} (observed with the profile in place)")|g"
+    echo "s|$(pattern "$work/mid-$i.bin")|$(replacement "${logs[i]} (observed with the corrected model)")|g"
     echo "s|$(pattern "$work/new-$i.bin")|$(replacement "${logs[i]} (observed with the candidate)")|g"
   done
   echo "s|$(pattern "$candidate")|the candidate profile|g"
@@ -358,7 +391,6 @@ done
 say "calibration part: ${calibrate[*]}"
 say "check part: ${check[*]}"
 
-# 2. Observe everything with the profile in place.
 # Observes the logs of the given indices with a profile into $work/PREFIX-i.bin, --jobs at a
 # time; their messages go to the log in the logs' order. Returns 1 at the first batch holding a
 # log that could not be observed (failed_log: its name).
@@ -384,31 +416,55 @@ observe_logs() {  # profile prefix index...
     ((status == 0)) || return 1
   done
 }
-observe_logs "$profile" old "${!logs[@]}" || keep_old "cannot observe $failed_log (broken log?)"
-old_calibration=() old_check=()
+even=() odd=()
 for i in "${!logs[@]}"; do
-  if ((i % 2 == 0)); then old_calibration+=("$work/old-$i.bin"); else old_check+=("$work/old-$i.bin"); fi
+  if ((i % 2 == 0)); then even+=("$i"); else odd+=("$i"); fi
 done
+# The work files of the given indices: $work/PREFIX-i.bin.
+observed() {  # prefix index...
+  local prefix=$1 i
+  shift
+  for i in "$@"; do printf '%s\n' "$work/$prefix-$i.bin"; done
+}
 
-# 3. Friction.
+# 2. Inertial parameters, on the raw calibration logs.
 cp "$profile" "$candidate" || keep_old "cannot write $candidate"
-if ((fit_friction)); then
-  if run mo-lugre-fit -p "$profile" -o "$candidate" --seed "$seed" "${old_calibration[@]}"; then
-    say "friction refitted (report above in this log)"
+corrected=0
+if ((fit_dynamics)); then
+  if run mo-dynfit -q -p "$profile" -o "$candidate" "${dynfit_options[@]}" "${calibrate[@]}"; then
+    corrected=1
+    say "inertial parameters corrected (mo-dynfit)"
   else
-    say "friction fit refused or failed (see above): keeping the friction in place"
+    say "inertial fit refused or failed (see above): keeping the inertial parameters in place"
     cp "$profile" "$candidate" || keep_old "cannot write $candidate"
   fi
 fi
 
-# 4. Thresholds, on residuals compensated with the candidate's friction.
-new_calibration=() even=()
-for i in "${!logs[@]}"; do
-  ((i % 2 == 0)) || continue
-  even+=("$i")
-  new_calibration+=("$work/new-$i.bin")
-done
-observe_logs "$candidate" new "${even[@]}" || keep_old "cannot observe $failed_log with the candidate"
+# 3. Observe: the check part with the profile in place (to compare with), the calibration part
+# with the corrected model (the friction is fitted on its residuals).
+observe_logs "$profile" old "${odd[@]}" || keep_old "cannot observe $failed_log (broken log?)"
+observe_logs "$candidate" mid "${even[@]}" || keep_old "cannot observe $failed_log (broken log?)"
+mapfile -t mid_calibration < <(observed mid "${even[@]}")
+mapfile -t old_check < <(observed old "${odd[@]}")
+
+# 4. Friction.
+# (A refused or failed fit leaves the candidate as it was: --update replaces it in one rename.)
+if ((fit_friction)); then
+  if run mo-lugre-fit -p "$candidate" --update --seed "$seed" "${mid_calibration[@]}"; then
+    say "friction refitted (report above in this log)"
+  else
+    say "friction fit refused or failed (see above): keeping the friction in place"
+  fi
+fi
+
+# 5. Thresholds, on residuals compensated with the candidate's friction (without a friction
+# fit, the corrected model's residuals are already those).
+if ((fit_friction)); then
+  observe_logs "$candidate" new "${even[@]}" || keep_old "cannot observe $failed_log with the candidate"
+  mapfile -t new_calibration < <(observed new "${even[@]}")
+else
+  new_calibration=("${mid_calibration[@]}")
+fi
 if ! run mo-calibrate -q -p "$candidate" --reject-contact --strict "${calibrate_options[@]}" "${new_calibration[@]}" \
     > "$work/calibration.txt"; then
   to_log < "$work/calibration.txt"
@@ -417,37 +473,49 @@ fi
 to_log < "$work/calibration.txt"
 calibrated=1
 
-# 5. Check: events on the check part, candidate and profile in place.
-events() {  # profile observed-streams...: prints the number of events, or "none" without thresholds
-  local p=$1 total=0 n status
+# 6. Check: events on the check part, candidate and profile in place.
+events() {  # profile observed-streams...: prints the number of events and the hours the
+  # streams cover, or "none" without thresholds
+  local p=$1 total=0 seconds=0 n s status
   shift
   for f in "$@"; do
-    mo-detect -q -p "$p" "$f" > "$work/events.csv" 2>> "$work/detect.err"
+    mo-detect -q --stats -p "$p" "$f" > "$work/events.csv" 2> "$work/detect.stats"
     status=$?
+    grep -v '^mo-detect: ' "$work/detect.stats" >> "$work/detect.err"
     if ((status == 2)); then
       echo none
       return
     fi
     n=$(grep -c ',onset,' "$work/events.csv")
+    s=$(sed -n 's/^mo-detect: [0-9]* rows over \([^ ]*\) s,.*/\1/p' "$work/detect.stats")
     total=$((total + n))
+    seconds=$(awk -v a="$seconds" -v b="${s:-0}" 'BEGIN { printf "%.6f", a + b }')
   done
-  echo "$total"
+  awk -v n="$total" -v s="$seconds" 'BEGIN { printf "%d %.6g\n", n, s / 3600 }'
 }
-new_check=() odd=()
-for i in "${!logs[@]}"; do
-  ((i % 2 == 1)) || continue
-  odd+=("$i")
-  new_check+=("$work/new-$i.bin")
-done
 observe_logs "$candidate" new "${odd[@]}" || keep_old "cannot observe $failed_log with the candidate"
-new_events=$(events "$candidate" "${new_check[@]}")
-old_events=$(events "$profile" "${old_check[@]}")
-say "check part: candidate $new_events events, profile in place $old_events"
+mapfile -t new_check < <(observed new "${odd[@]}")
+read -r new_events check_hours < <(events "$candidate" "${new_check[@]}")
+read -r old_events _ < <(events "$profile" "${old_check[@]}")
 if [[ $new_events == none ]]; then
   to_log < "$work/detect.err"
   keep_old "the candidate cannot run the detector (see above)"
 fi
-((new_events == 0)) || keep_old --refused "the candidate raises $new_events events on collision-free logs"
+# The candidate's stated rate for the signal mo-detect judges (mu when calibrated, else r).
+rate=$(awk '$1 == "#" && $3 == "false" && $4 == "alarms" && $5 == "expected:" { r[$2] = $6 }
+  END { print ("mu" in r) ? r["mu"] : ("r" in r) ? r["r"] : "" }' "$work/calibration.txt")
+[[ -n $rate ]] || keep_old "the calibration states no false-alarm rate (see above)"
+expected_events=$(awk -v r="$rate" -v h="$check_hours" 'BEGIN { printf "%.4g", r * h }')
+# P(N >= n) for N Poisson with mean `expected_events`.
+chance=$(awk -v n="$new_events" -v m="$expected_events" 'BEGIN {
+  below = 0; term = exp(-m)
+  for (k = 0; k < n; ++k) { below += term; term *= m / (k + 1) }
+  p = 1 - below; printf "%.3g", p < 0 ? 0 : p }')
+say "check part ($check_hours h): candidate $new_events events (its calibration stands for $expected_events;" \
+  "as many or more by chance: $chance), profile in place $old_events"
+if awk -v p="$chance" -v level="$check_level" 'BEGIN { exit !(p < level) }'; then
+  keep_old --refused "the candidate raises $new_events events on collision-free logs (its calibration stands for $expected_events)"
+fi
 if [[ $old_events != none ]] && ((new_events > old_events)); then
   keep_old --refused "the candidate raises more events than the profile in place"
 fi
@@ -465,7 +533,7 @@ if ((dry_run)); then
   exit 0
 fi
 
-# 6. Install: dated backup, then one rename.
+# 7. Install: dated backup, then one rename.
 backup="$backups/$name.$(date -u +%Y%m%dT%H%M%SZ).json"
 cp -p "$profile" "$backup" || keep_old "cannot back up to $backup"
 chmod --reference="$profile" "$candidate" 2> /dev/null

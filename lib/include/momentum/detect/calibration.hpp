@@ -258,6 +258,12 @@ struct CalibrationResult {
   std::vector<std::string> warnings;
   // True when any joint's max looks like a contact.
   bool any_contact() const;
+  // False alarms the thresholds stand for, per hour of logs whose motion is like the
+  // calibration's: every joint's states, each at the rate its tail gives over its threshold
+  // (the target rate where no tail was fitted) and weighted by its share of the joint's time.
+  // A sum over joints, so an upper bound on events (one event may cross several joints). NaN
+  // when no joint has rows.
+  double expected_false_alarms_per_hour() const;
 };
 
 // Accumulates collision-free rows of one signal over one or more streams.

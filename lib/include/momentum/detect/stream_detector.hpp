@@ -92,6 +92,9 @@ struct StreamDetectorSummary {
   bool output_closed = false;  // the output's reader went away (a closed pipe)
   bool interrupted = false;    // SIGINT/SIGTERM ended the input
   std::uint64_t rows = 0;          // rows detected on
+  // Time the rows cover, s: the sum of their time steps (a clock step adds none), so that a
+  // count of events can be set against a false-alarm rate per hour.
+  double seconds = 0;
   std::uint64_t rows_skipped = 0;  // bad rows the reader skipped
   std::uint64_t events = 0;
   std::uint64_t collisions = 0;    // onsets written
