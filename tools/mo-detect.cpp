@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   app.add_flag("--any-class", options.any_class, "--on-collision runs for every event at its detection");
   app.add_flag("--no-identify", no_identify, "no contact point, force or class (not even with a model and q)");
   contact::LocatorOptions locator;
-  app.add_option("--link-radius", locator.link_radius, "radius of the links searched for the contact point, m (0.05)")
+  app.add_option("--link-radius", locator.link_radius, "radius of the cylinder searched for the contact point on links without collision shapes, m (0.05)")
       ->type_name("M");
   app.add_flag("--stats", stats, "print rows, events and per-row latency on stderr at the end");
   std::string format = "csv";

@@ -48,10 +48,14 @@ TEST(Thresholds, StoreAndReadBackKeepsEverythingElse) {
   ASSERT_TRUE(rr);
   EXPECT_EQ(rr->joints[1].moving, 7.8);
 
-  // Replacing mu keeps r.
+  // Replacing mu keeps r, and the keys of mu's entry that another stage owns (the contact
+  // classification rule); the margin the new thresholds leave out goes.
+  doc["thresholds"]["mu"]["classify"] = {{"rise", 0.05}};
   store_thresholds(doc, constant_thresholds(Signal::mu, {1, 2}, 2));
   EXPECT_EQ(thresholds_from_profile(doc, Signal::mu, "p")->joints[1].moving, 2);
   EXPECT_EQ(thresholds_from_profile(doc, Signal::r, "p")->joints[0].moving, 7.8);
+  EXPECT_EQ(doc["thresholds"]["mu"]["classify"]["rise"], 0.05);
+  EXPECT_FALSE(doc["thresholds"]["mu"].contains("margin"));
 }
 
 TEST(Thresholds, AbsentSectionOrSignal) {

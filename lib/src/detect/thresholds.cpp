@@ -172,11 +172,14 @@ void store_thresholds(nlohmann::json& document, const Thresholds& t) {
   if (!section.is_object())
     throw Error("profile: \"thresholds\" must be an object, not " + std::string(section.type_name()));
   auto& entry = section[std::string(signal_name(t.signal))];
-  // Sections other stages own (the contact classification rule) stay.
-  nlohmann::json kept = nlohmann::json::object();
-  if (entry.is_object() && entry.contains("classify")) kept["classify"] = entry["classify"];
-  entry = thresholds_to_json(t);
-  entry.update(kept);
+  nlohmann::json updated = thresholds_to_json(t);
+  // Keys the thresholds do not write belong to other stages (the contact classification rule
+  // of contact/classify.hpp) and stay; those they write are replaced whole, so a key the new
+  // thresholds leave out (rest_raw's "signal") does not survive from the old ones.
+  if (entry.is_object())
+    for (const auto& [key, value] : entry.items())
+      if (key != "rest" && key != "margin" && key != "joints") updated[key] = value;
+  entry = std::move(updated);
 }
 
 Thresholds constant_thresholds(Signal signal, const std::vector<double>& values, std::size_t joints) {

@@ -103,8 +103,9 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
 // The JSON entry of `thresholds` (the object under "thresholds"/<signal>).
 nlohmann::json thresholds_to_json(const Thresholds& thresholds);
 
-// Stores `thresholds` under document["thresholds"][signal], replacing the previous entry for
-// that signal (but its "classify" rule, which contact/classify.hpp owns) and keeping the others. Throws momentum::Error when "thresholds" exists and is
+// Stores `thresholds` under document["thresholds"][signal]: the entry's "rest", "margin" and
+// "joints" are replaced; its other keys (the "classify" rule that contact/classify.hpp owns)
+// and the other signals' entries stay. Throws momentum::Error when "thresholds" exists and is
 // not an object.
 void store_thresholds(nlohmann::json& document, const Thresholds& thresholds);
 
