@@ -60,6 +60,8 @@ int main(int argc, char** argv) {
   app.add_option("--contact-ratio", options.contact_ratio, "a max over RATIO x p99.9, or x the next peak, looks like a contact (2)")
       ->type_name("RATIO");
   app.add_flag("--reject-contact", reject_contact, "fail, writing nothing, when a max looks like a contact");
+  app.add_option("--friction-band", streams.friction_band_sigmas,
+                 "mu moving rows count beyond K sd of the profile's friction model at their speed (3; 0: off)")->type_name("K");
   app.add_flag("-n,--dry-run", dry_run, "print the report, do not write the profile");
   tool.add_strict();
   std::string format = "text";

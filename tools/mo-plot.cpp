@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
     }
     auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front());
     const detect::PlotColumns columns = detect::plot_columns(*in, signals);
-    const auto thresholds = detect::plot_thresholds(tool.profile(), columns.signals);
+    const auto thresholds = detect::plot_thresholds(tool.profile(), columns.signals, &options.friction_band);
     std::vector<detect::Event> events;
     if (!events_path.empty()) events = detect::read_events(events_path);
     std::vector<detect::TruthContact> truth;

@@ -14,6 +14,7 @@
 #include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
+namespace friction = momentum::friction;
 
 namespace {
 
@@ -486,4 +487,60 @@ TEST(Calibrator, SkipLeavesTheStartOfEveryStreamOut) {
   const auto result = c.result();
   EXPECT_LT(result.thresholds.joints[0].moving, 0.9 + 1e-12);
   EXPECT_EQ(result.rows, 2u * 1900u);
+}
+
+TEST(Calibrator, FrictionBandTakesACreepWithinTheModelsUncertaintyForNoContact) {
+  // One joint at 1 kHz: 200 s of sweeping motion (|dq| 0.3 to 0.7 rad/s, mu noise 0.01 Nm),
+  // then a creep at 0.015 rad/s for 1 s, in which for 0.15 s the fitted static level is 0.1 Nm
+  // off: 2.5 of its reported 0.04 Nm uncertainty, in the Stribeck dip (w_s 0.05).
+  friction::FrictionModel model;
+  model.joints = {friction::Parameters<double>{2e4, 120, 1.2, 2.2, 2.9, 0.05}};
+  model.covariance = {friction::SteadyCovariance{{4}, {0.04 * 0.04}}};  // tau_s only
+  const FrictionBand band(model, 3);
+  ASSERT_FALSE(band.empty());
+  EXPECT_NEAR(band.width(0, 0.0), 0.12, 1e-12);
+  EXPECT_NEAR(band.width(0, 0.015), 0.12 * std::exp(-0.09), 1e-12);
+  EXPECT_LT(band.width(0, 0.5), 1e-20);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  Rows r;
+  for (int k = 0; k < 201000; ++k) {
+    const double t = k * 0.001;
+    r.t.push_back(t);
+    const bool creep = t >= 200;
+    r.dq.push_back(creep ? 0.015 : 0.5 + 0.2 * std::sin(t));
+    r.x.push_back(noise(rng) + (t >= 200.2 && t < 200.35 ? 0.1 : 0.0));
+  }
+  CalibrationOptions plain;
+  Calibrator without(Signal::mu, 1, plain);
+  feed(without, r, "day");
+  EXPECT_TRUE(without.result().any_contact());  // the creep is an outlier of the moving rows
+
+  CalibrationOptions banded;
+  banded.friction_band = band;
+  Calibrator with(Signal::mu, 1, banded);
+  feed(with, r, "day");
+  const auto result = with.result();
+  EXPECT_FALSE(result.any_contact()) << (result.warnings.empty() ? "" : result.warnings[0]);
+  EXPECT_EQ(result.thresholds.friction_band, 3.0);
+  EXPECT_LT(result.thresholds.joints[0].moving, 0.07);  // the fast rows' noise sets it
+  ASSERT_EQ(result.friction_band_static.size(), 1u);
+  EXPECT_NEAR(result.friction_band_static[0], 0.12, 1e-12);
+
+  // The detector with the same band: no event on the calibration data; without it, the creep
+  // fires. A 0.3 Nm push in the creep is seen with the band.
+  auto events = [&](const FrictionBand& b, double push) {
+    DetectorOptions o;
+    o.friction_band = b;
+    Detector detector(result.thresholds, o, true);
+    int count = 0;
+    for (std::size_t k = 0; k < r.t.size(); ++k) {
+      const double x = r.x[k] + (r.t[k] >= 200.5 && r.t[k] < 200.7 ? push : 0.0);
+      for (const Event& e : detector.step(r.t[k], &x, &r.dq[k])) count += e.kind == EventKind::onset;
+    }
+    return count;
+  };
+  EXPECT_EQ(events(band, 0.0), 0);
+  EXPECT_GE(events(FrictionBand{}, 0.0), 1);
+  EXPECT_EQ(events(band, 0.3), 1);
 }

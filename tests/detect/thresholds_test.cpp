@@ -22,6 +22,7 @@ TEST(Thresholds, StoreAndReadBackKeepsEverythingElse) {
   b.moving = 3;
   b.envelope = JointThreshold::Envelope{1.5, 0.5};
   t.joints = {a, b};
+  t.friction_band = 3;
   store_thresholds(doc, t);
   Thresholds r = constant_thresholds(Signal::r, {7.8}, 2);
   store_thresholds(doc, r);
@@ -34,6 +35,7 @@ TEST(Thresholds, StoreAndReadBackKeepsEverythingElse) {
   EXPECT_EQ(back->rest_rule.time, 0.3);
   EXPECT_EQ(back->rest_rule.hangover, 0.05);
   EXPECT_EQ(*back->margin_nm, 0.5);
+  EXPECT_EQ(back->friction_band, 3.0);
   ASSERT_EQ(back->joints.size(), 2u);
   EXPECT_EQ(back->joints[0].moving, 2.5);
   EXPECT_EQ(back->joints[0].band, 1.25);
@@ -56,6 +58,7 @@ TEST(Thresholds, StoreAndReadBackKeepsEverythingElse) {
   EXPECT_EQ(thresholds_from_profile(doc, Signal::r, "p")->joints[0].moving, 7.8);
   EXPECT_EQ(doc["thresholds"]["mu"]["classify"]["rise"], 0.05);
   EXPECT_FALSE(doc["thresholds"]["mu"].contains("margin"));
+  EXPECT_FALSE(doc["thresholds"]["mu"].contains("friction_band"));  // constant thresholds have none
 }
 
 TEST(Thresholds, AbsentSectionOrSignal) {

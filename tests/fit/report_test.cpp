@@ -132,3 +132,31 @@ TEST(Report, JsonAndText) {
   EXPECT_EQ(details["window"], "2:8");
   EXPECT_EQ(details["joints"][0]["rms"], 0.1);
 }
+
+TEST(SteadyCovariance, FromTheReportedUncertaintiesAndCorrelationsOfTheSteadyStateParameters) {
+  fit::JointFit f = joint_fit(1, mf::Kind::lugre, 5.0);
+  // No covariance computed: none.
+  EXPECT_FALSE(fit::steady_covariance(f.model));
+  f.model.covariance_ok = true;
+  f.model.correlation(4, 5) = f.model.correlation(5, 4) = -0.5;  // tau_s with w_s (positions in `free`)
+  const auto c = fit::steady_covariance(f.model);
+  ASSERT_TRUE(c);
+  // sigma0 and sigma1 shape only the transients: left out.
+  EXPECT_EQ(c->parameters, (std::vector<int>{2, 3, 4, 5}));
+  ASSERT_EQ(c->matrix.size(), 16u);
+  const double u_tau_s = 0.02 * 6.0, u_w_s = 0.02 * 0.05, u_sigma2 = 0.02 * 1.5;
+  EXPECT_DOUBLE_EQ(c->matrix[0], u_sigma2 * u_sigma2);
+  EXPECT_DOUBLE_EQ(c->matrix[2 * 4 + 3], -0.5 * u_tau_s * u_w_s);
+  EXPECT_DOUBLE_EQ(c->matrix[3 * 4 + 2], c->matrix[2 * 4 + 3]);
+  EXPECT_DOUBLE_EQ(c->matrix[0 * 4 + 1], 0.0);
+  // Written with the fitted joint, and read back.
+  const auto section = fit::merged_friction_section(&kLugreSection, 2, {f}, mf::Kind::lugre, {});
+  EXPECT_FALSE(section["joints"][1].contains("covariance"));
+  const auto model = mf::friction_from_json(section);
+  ASSERT_EQ(model.covariance.size(), 2u);
+  ASSERT_TRUE(model.covariance[0]);
+  EXPECT_EQ(model.covariance[0]->matrix, c->matrix);
+  // A NaN uncertainty gives none.
+  f.model.estimates[5].uncertainty = NAN;
+  EXPECT_FALSE(fit::steady_covariance(f.model));
+}

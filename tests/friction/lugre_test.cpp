@@ -294,3 +294,75 @@ TEST(FrictionModel, JsonRoundTripAndErrors) {
   EXPECT_EQ(warnings[0], "friction: unknown key 'colour'");
   EXPECT_EQ(warnings[1], "friction: joint 1: unknown key 'tau_x'");
 }
+
+TEST(SteadyFrictionSd, ClosedFormPerParameterAndTheStribeckVelocityByFiniteDifferences) {
+  Params p;
+  p.sigma2 = 1.2;
+  p.tau_c = 2.2;
+  p.tau_s = 2.9;
+  p.w_s = 0.05;
+  auto only = [](int parameter, double variance) {
+    return mf::SteadyCovariance{{parameter}, {variance}};
+  };
+  const double e = std::exp(-0.25);  // at w = w_s / 2
+  // tau_s: the whole static level at standstill, e^{-(w/w_s)^2} of it in motion, none at speed.
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::lugre, p, only(4, 0.04 * 0.04), 0.0), 0.04, 1e-15);
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::lugre, p, only(4, 0.04 * 0.04), -0.025), 0.04 * e, 1e-15);
+  EXPECT_LT(mf::steady_friction_sd(mf::Kind::lugre, p, only(4, 0.04 * 0.04), 0.5), 1e-40);
+  // tau_c: the complement; sigma2: |w| of it.
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::stribeck, p, only(3, 0.01), 0.025), 0.1 * (1 - e), 1e-15);
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::lugre, p, only(2, 0.25), -0.4), 0.5 * 0.4, 1e-15);
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::coulomb_viscous, p, only(3, 0.01), 0.025), 0.1, 1e-15);
+  // w_s: against a central difference of the Stribeck curve.
+  const double w = 0.03, h = 1e-7;
+  Params up = p, down = p;
+  up.w_s += h;
+  down.w_s -= h;
+  const double slope = (mf::stribeck_torque(up, w) - mf::stribeck_torque(down, w)) / (2 * h);
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::lugre, p, only(5, 1e-6), w), std::abs(slope) * 1e-3, 1e-9);
+  // Two parameters perfectly anti-correlated at equal sizes cancel where their gradients are
+  // equal: tau_c and tau_s at w_s sqrt(ln 2), where e^{-x^2} = 1/2.
+  const double half = p.w_s * std::sqrt(std::log(2.0));
+  const mf::SteadyCovariance opposed{{3, 4}, {0.01, -0.01, -0.01, 0.01}};
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::lugre, p, opposed, half), 0.0, 1e-7);
+  EXPECT_NEAR(mf::steady_friction_sd(mf::Kind::lugre, p, opposed, 0.0), 0.1, 1e-15);
+}
+
+TEST(FrictionModel, CovarianceRoundTripAndErrors) {
+  mf::FrictionModel model;
+  model.joints = {kTable1[0], kTable1[1]};
+  model.covariance = {std::nullopt, mf::SteadyCovariance{{3, 4, 5}, {1e-4, 2e-5, 0, 2e-5, 4e-3, -1e-6, 0, -1e-6, 1e-6}}};
+  const nlohmann::json section = mf::to_json(model);
+  EXPECT_FALSE(section["joints"][0].contains("covariance"));
+  EXPECT_EQ(section["joints"][1]["covariance"]["parameters"], nlohmann::json::parse(R"(["tau_c", "tau_s", "w_s"])"));
+  std::vector<std::string> warnings;
+  const mf::FrictionModel back = mf::friction_from_json(section, &warnings);
+  EXPECT_TRUE(warnings.empty());
+  ASSERT_EQ(back.covariance.size(), 2u);
+  EXPECT_FALSE(back.covariance[0]);
+  ASSERT_TRUE(back.covariance[1]);
+  EXPECT_EQ(back.covariance[1]->parameters, model.covariance[1]->parameters);
+  EXPECT_EQ(back.covariance[1]->matrix, model.covariance[1]->matrix);
+  // Without any covariance the list stays empty.
+  EXPECT_TRUE(mf::friction_from_json(mf::to_json(mf::FrictionModel{mf::Kind::lugre, {}, {kTable1[0]}, {}})).covariance.empty());
+
+  auto error_of = [](const std::string& covariance) -> std::string {
+    try {
+      mf::friction_from_json(nlohmann::json::parse(
+          R"({"model": "coulomb-viscous", "joints": [{"sigma2": 1, "tau_c": 1, "covariance": )" + covariance + "}]}"));
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(error_of(R"({"parameters": ["sigma0"], "matrix": [[1]]})"),
+            "friction: joint 1: covariance: \"sigma0\" is not one of sigma2, tau_c, tau_s, w_s, delta_c, delta_s");
+  EXPECT_EQ(error_of(R"({"parameters": ["tau_c", "tau_c"], "matrix": [[1, 0], [0, 1]]})"),
+            "friction: joint 1: covariance: \"tau_c\" is given twice");
+  EXPECT_EQ(error_of(R"({"parameters": ["tau_c", "sigma2"], "matrix": [[1, 0.5], [0, 1]]})"),
+            "friction: joint 1: covariance: 'matrix' is not symmetric");
+  EXPECT_EQ(error_of(R"({"parameters": ["tau_c"], "matrix": [[-1]]})"), "friction: joint 1: covariance: a variance is negative");
+  EXPECT_EQ(error_of(R"({"parameters": ["tau_c"], "matrix": [[1, 2]]})"), "friction: joint 1: covariance: 'matrix' is not 1 x 1");
+  EXPECT_EQ(error_of(R"([1])"),
+            "friction: joint 1: covariance: not {\"parameters\": [names], \"matrix\": [[...]]}");
+}

@@ -18,6 +18,8 @@ bool CalibrateStreamsOptions::IsValid(std::string* why) const {
   };
   if (max_rise != 0 && !(max_rise >= 1 && std::isfinite(max_rise))) return fail("--max-rise must be >= 1");
   if (!calibration.IsValid(why)) return false;
+  if (!(friction_band_sigmas >= 0 && std::isfinite(friction_band_sigmas)))
+    return fail("--friction-band must be >= 0 standard deviations");
   if (!output.empty() && profile_path.empty()) return fail("-o needs a profile (-p) to update");
   return true;
 }
@@ -35,9 +37,12 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
                                                  const CalibrateStreamsOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error(why);
-  const CalibrationOptions& calibration = options.calibration;
+  CalibrationOptions calibration = options.calibration;
   std::optional<model::Profile> profile;
   if (!options.profile_path.empty()) profile = model::load_profile(options.profile_path);
+  if (profile && calibration.friction_band.empty())
+    calibration.friction_band =
+        friction_band_from_profile(profile->document, options.friction_band_sigmas, options.profile_path);
 
   std::vector<Signal> signals = options.signals;
   std::vector<Calibrator> calibrators;

@@ -323,6 +323,10 @@ CalibrationResult Calibrator::result() const {
   out.thresholds.signal = signal_;
   out.thresholds.rest_rule = options_.rest_rule;
   out.thresholds.rest_raw = rest_raw_ && signal_ == Signal::mu;
+  if (signal_ == Signal::mu && !options_.friction_band.empty()) {
+    out.thresholds.friction_band = options_.friction_band.sigmas();
+    for (std::size_t j = 0; j < joints_.size(); ++j) out.friction_band_static.push_back(options_.friction_band.width(j, 0.0));
+  }
   if (options_.margin_nm) out.thresholds.margin_nm = *options_.margin_nm;
   else out.thresholds.margin_percent = options_.margin_percent;
   auto with_margin = [&](double x) {
@@ -551,6 +555,11 @@ std::string format_calibration_report(const CalibrationResult& r) {
       out += "# joint " + std::to_string(j + 1) + " envelope: " + core::significant(T.envelope->a, 6) + " + " + core::significant(T.envelope->b, 6) +
              " |dq| Nm (mean over the moving rows " + core::significant(c.envelope_mean, 6) + " Nm, constant " + core::significant(T.moving, 6) + " Nm)\n";
   }
+  for (std::size_t j = 0; j < r.friction_band_static.size(); ++j)
+    if (r.friction_band_static[j] > 0)
+      out += "# joint " + std::to_string(j + 1) + " friction band: " + core::significant(r.thresholds.friction_band, 3) +
+             " sd of the friction model's steady state, " + core::significant(r.friction_band_static[j], 3) +
+             " Nm near standstill: moving rows count beyond it\n";
   const double expected = r.expected_false_alarms_per_hour();
   if (std::isfinite(expected))
     out += "# " + sig + " false alarms expected: " + core::significant(expected, 3) +

@@ -78,6 +78,12 @@ std::span<const Event> Detector::step(double t, const double* x, const double* d
       if (T.envelope && options_.use_envelope && have_velocity_ && std::isfinite(v))
         threshold = T.envelope->a + T.envelope->b * std::fabs(v);
       band = T.band;
+      // Calibration counted these rows beyond the friction model's band: the same here.
+      if (thresholds_.signal == Signal::mu && have_velocity_) {
+        const double widen = options_.friction_band.width(j, v);
+        threshold += widen;
+        band += widen;
+      }
     }
     J.was_rest = state == MotionState::rest;
     const double centre = state == MotionState::rest && !T.rest_absolute ? J.baseline.value() : 0.0;

@@ -59,7 +59,9 @@ PlotData::PlotData(std::vector<Signal> signals, std::vector<std::optional<Thresh
     if (t) {
       if (t->joints.size() != joints_)
         throw Error("thresholds for " + std::to_string(t->joints.size()) + " joints, the stream has " + std::to_string(joints_));
-      detectors_.emplace_back(Detector(*t, {}, have_velocity_));
+      DetectorOptions detector;
+      detector.friction_band = options_.friction_band;
+      detectors_.emplace_back(Detector(*t, detector, have_velocity_));
     } else {
       detectors_.emplace_back(std::nullopt);
     }

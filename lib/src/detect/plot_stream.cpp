@@ -30,13 +30,15 @@ PlotColumns plot_columns(const stream::Reader& in, const std::vector<Signal>& si
 }
 
 std::vector<std::optional<Thresholds>> plot_thresholds(const std::string& profile_path,
-                                                       const std::vector<Signal>& signals) {
+                                                       const std::vector<Signal>& signals, FrictionBand* friction_band) {
   std::vector<std::optional<Thresholds>> thresholds(signals.size());
   if (profile_path.empty()) return thresholds;
   const model::Profile profile = model::load_profile(profile_path);
   for (std::size_t s = 0; s < signals.size(); ++s) {
     thresholds[s] = thresholds_from_profile(profile.document, signals[s], profile_path);
     if (!thresholds[s]) warn(profile_path + ": no thresholds for " + std::string(signal_name(signals[s])) + ": none drawn");
+    else if (friction_band && signals[s] == Signal::mu)
+      *friction_band = friction_band_from_profile(profile.document, thresholds[s]->friction_band, profile_path);
   }
   return thresholds;
 }

@@ -15,6 +15,7 @@
 #include "momentum/core/number.hpp"
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/events_json.hpp"
+#include "momentum/detect/friction_band.hpp"
 #include "momentum/detect/live.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -165,7 +166,15 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
                     ", which the stream does not have (mo-calibrate --rest-signal mu calibrates rest on mu)");
       irest = stream::column_indices(in->columns(), stream::joint_columns("r", n), in->name());
     }
-    Detector detector(thresholds, o.detector, !idq.empty());
+    DetectorOptions detector_options = o.detector;
+    if (thresholds.friction_band > 0 && signal == Signal::mu && profile()) {
+      detector_options.friction_band =
+          friction_band_from_profile(profile()->document, thresholds.friction_band, o.profile_path);
+      if (detector_options.friction_band.empty())
+        warn(o.profile_path + ": the thresholds were calibrated beyond the friction model's band, but the friction "
+             "section holds no covariance: moving thresholds without it");
+    }
+    Detector detector(thresholds, detector_options, !idq.empty());
 
     // Identification needs the chain (the profile's URDF) and the joint positions.
     std::optional<model::Model> chain;

@@ -46,6 +46,10 @@ bool RestRule::IsValid(std::string* why) const {
 
 bool Thresholds::IsValid(std::string* why) const {
   if (!rest_rule.IsValid(why)) return false;
+  if (!(friction_band >= 0 && std::isfinite(friction_band))) {
+    if (why) *why = "friction band must be >= 0 standard deviations, not " + core::significant(friction_band, 9);
+    return false;
+  }
   if (joints.empty()) {
     if (why) *why = "no joints";
     return false;
@@ -103,6 +107,7 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
       else if (*v != std::string(signal_name(signal))) throw fail(base + ".rest.signal must be \"r\" or \"" + std::string(signal_name(signal)) + "\"");
     }
   }
+  if (const auto v = entry->find("friction_band"); v != entry->end()) t.friction_band = number(*v, base + ".friction_band");
   if (const auto margin = entry->find("margin"); margin != entry->end() && margin->is_object()) {
     if (const auto v = margin->find("nm"); v != margin->end()) t.margin_nm = number(*v, base + ".margin.nm");
     if (const auto v = margin->find("percent"); v != margin->end())
@@ -144,6 +149,7 @@ nlohmann::json thresholds_to_json(const Thresholds& t) {
   nlohmann::json entry = nlohmann::json::object();
   entry["rest"] = {{"velocity", t.rest_rule.velocity}, {"time", t.rest_rule.time}, {"hangover", t.rest_rule.hangover}};
   if (t.rest_raw) entry["rest"]["signal"] = "r";
+  if (t.friction_band > 0) entry["friction_band"] = t.friction_band;
   if (t.margin_nm) entry["margin"] = {{"nm", *t.margin_nm}};
   else if (t.margin_percent) entry["margin"] = {{"percent", *t.margin_percent}};
   nlohmann::json joints = nlohmann::json::array();
@@ -178,7 +184,7 @@ void store_thresholds(nlohmann::json& document, const Thresholds& t) {
   // thresholds leave out (rest_raw's "signal") does not survive from the old ones.
   if (entry.is_object())
     for (const auto& [key, value] : entry.items())
-      if (key != "rest" && key != "margin" && key != "joints") updated[key] = value;
+      if (key != "rest" && key != "margin" && key != "joints" && key != "friction_band") updated[key] = value;
   entry = std::move(updated);
 }
 

@@ -293,6 +293,27 @@ std::string report_text(const FitReport& r) {
   return out;
 }
 
+std::optional<friction::SteadyCovariance> steady_covariance(const ModelFit& fit) {
+  if (!fit.covariance_ok) return std::nullopt;
+  std::vector<std::size_t> rows;  // positions in `free`
+  friction::SteadyCovariance c;
+  for (std::size_t k = 0; k < fit.free.size(); ++k)
+    if (fit.free[k] >= 2) {
+      rows.push_back(k);
+      c.parameters.push_back(fit.free[k]);
+    }
+  if (rows.empty() || fit.correlation.rows() != static_cast<Eigen::Index>(fit.free.size())) return std::nullopt;
+  for (std::size_t a : rows)
+    for (std::size_t b : rows) {
+      const double value = fit.correlation(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) *
+                           fit.estimates[static_cast<std::size_t>(fit.free[a])].uncertainty *
+                           fit.estimates[static_cast<std::size_t>(fit.free[b])].uncertainty;
+      if (!std::isfinite(value)) return std::nullopt;
+      c.matrix.push_back(value);
+    }
+  return c;
+}
+
 json merged_friction_section(const json* current, int joints, const std::vector<JointFit>& fits,
                              friction::Kind kind, const friction::Options& options) {
   std::vector<bool> fitted(static_cast<std::size_t>(joints), false);
@@ -335,9 +356,11 @@ json merged_friction_section(const json* current, int joints, const std::vector<
     json& entry = section["joints"][static_cast<std::size_t>(f.joint - 1)];
     if (!entry.is_object()) entry = json::object();
     for (const char* name : friction::kParameterNames) entry.erase(name);
+    entry.erase("covariance");
     double x[kParameterCount];
     f.model.parameters.to_array(x);
     for (int i : model_parameters(kind, f.model.asymmetric)) entry[friction::kParameterNames[i]] = x[i];
+    if (const auto covariance = steady_covariance(f.model)) entry["covariance"] = friction::covariance_to_json(*covariance);
   }
   // The result must read back (catches a merge that left a joint incomplete).
   (void)friction::friction_from_json(section);

@@ -1,5 +1,6 @@
 #include "momentum/friction/friction.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <string>
@@ -105,12 +106,81 @@ bool Options::IsValid(std::string* why) const {
 
 bool FrictionModel::IsValid(std::string* why) const {
   if (!options.IsValid(why)) return false;
+  if (!covariance.empty() && covariance.size() != joints.size())
+    return fail(why, std::to_string(covariance.size()) + " covariances for " + std::to_string(joints.size()) + " joints");
   for (std::size_t j = 0; j < joints.size(); ++j) {
     std::string reason;
     if (!friction::IsValid(kind, joints[j], &reason))
       return fail(why, "joint " + std::to_string(j + 1) + ": " + reason);
   }
   return true;
+}
+
+namespace {
+
+SteadyCovariance covariance_from_json(const nlohmann::json& entry, const std::string& where) {
+  if (!entry.is_object() || !entry.contains("parameters") || !entry.contains("matrix"))
+    error(where + "not {\"parameters\": [names], \"matrix\": [[...]]}");
+  const auto& names = entry["parameters"];
+  const auto& rows = entry["matrix"];
+  if (!names.is_array() || !rows.is_array() || rows.size() != names.size())
+    error(where + "'parameters' and the rows of 'matrix' must be arrays of one size");
+  SteadyCovariance c;
+  for (const auto& name : names) {
+    int index = -1;
+    for (int i = 2; i < Parameters<double>::kSize; ++i)
+      if (name.is_string() && name.get<std::string>() == kParameterNames[i]) index = i;
+    if (index < 0) error(where + name.dump() + " is not one of sigma2, tau_c, tau_s, w_s, delta_c, delta_s");
+    if (std::find(c.parameters.begin(), c.parameters.end(), index) != c.parameters.end())
+      error(where + name.dump() + " is given twice");
+    c.parameters.push_back(index);
+  }
+  const std::size_t n = c.parameters.size();
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!rows[a].is_array() || rows[a].size() != n) error(where + "'matrix' is not " + std::to_string(n) + " x " + std::to_string(n));
+    for (std::size_t b = 0; b < n; ++b) {
+      if (!rows[a][b].is_number() || !std::isfinite(rows[a][b].get<double>())) error(where + "'matrix' holds a value that is not a finite number");
+      c.matrix.push_back(rows[a][b].get<double>());
+    }
+  }
+  for (std::size_t a = 0; a < n; ++a) {
+    if (c.matrix[a * n + a] < 0) error(where + "a variance is negative");
+    for (std::size_t b = 0; b < a; ++b) {
+      const double x = c.matrix[a * n + b], y = c.matrix[b * n + a];
+      if (std::abs(x - y) > 1e-9 * std::max(std::abs(x), std::abs(y))) error(where + "'matrix' is not symmetric");
+    }
+  }
+  return c;
+}
+
+}  // namespace
+
+double steady_friction_sd(Kind kind, const Parameters<double>& p, const SteadyCovariance& covariance, double w) {
+  // d|F|/d(parameter) for the direction of w (w = 0: the positive side's limit, whose static
+  // level the joint holds at breakaway).
+  const double direction = w < 0 ? -1.0 : 1.0;
+  const double speed = std::abs(w);
+  double gradient[Parameters<double>::kSize] = {};
+  gradient[2] = speed;
+  if (kind == Kind::coulomb_viscous) {
+    gradient[3] = 1;
+    gradient[6] = direction;
+  } else {
+    const double x = speed / p.w_s;
+    const double stribeck = std::exp(-x * x);
+    const double drop = (p.tau_s + direction * p.delta_s) - (p.tau_c + direction * p.delta_c);
+    gradient[3] = 1 - stribeck;
+    gradient[4] = stribeck;
+    gradient[5] = drop * stribeck * 2 * x * x / p.w_s;
+    gradient[6] = direction * (1 - stribeck);
+    gradient[7] = direction * stribeck;
+  }
+  const std::size_t n = covariance.parameters.size();
+  double variance = 0;
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = 0; b < n; ++b)
+      variance += gradient[covariance.parameters[a]] * covariance.matrix[a * n + b] * gradient[covariance.parameters[b]];
+  return std::sqrt(std::max(0.0, variance));
 }
 
 FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std::string>* warnings) {
@@ -156,15 +226,33 @@ FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std:
     }
     for (int i : asymmetry_parameters(model.kind)) read_number(entry, kParameterNames[i], &x[i], where);
     for (const auto& item : entry.items()) {
-      bool is_parameter = false;
+      bool is_parameter = item.key() == "covariance";
       for (const char* name : kParameterNames) is_parameter = is_parameter || item.key() == name;
       if (!is_parameter && warnings) warnings->push_back("friction: " + where + "unknown key '" + item.key() + "'");
     }
     model.joints.push_back(Parameters<double>::from_array(x));
+    model.covariance.push_back(std::nullopt);
+    if (const auto c = entry.find("covariance"); c != entry.end() && !c->is_null())
+      model.covariance.back() = covariance_from_json(*c, where + "covariance: ");
   }
+  bool any_covariance = false;
+  for (const auto& c : model.covariance) any_covariance = any_covariance || c.has_value();
+  if (!any_covariance) model.covariance.clear();
   std::string why;
   if (!model.IsValid(&why)) error(why);
   return model;
+}
+
+nlohmann::json covariance_to_json(const SteadyCovariance& covariance) {
+  nlohmann::json names = nlohmann::json::array(), rows = nlohmann::json::array();
+  const std::size_t n = covariance.parameters.size();
+  for (std::size_t a = 0; a < n; ++a) {
+    names.push_back(kParameterNames[covariance.parameters[a]]);
+    nlohmann::json row = nlohmann::json::array();
+    for (std::size_t b = 0; b < n; ++b) row.push_back(covariance.matrix[a * n + b]);
+    rows.push_back(std::move(row));
+  }
+  return {{"parameters", std::move(names)}, {"matrix", std::move(rows)}};
 }
 
 nlohmann::json to_json(const FrictionModel& model) {
@@ -182,6 +270,8 @@ nlohmann::json to_json(const FrictionModel& model) {
     for (int i : used) entry[kParameterNames[i]] = x[i];
     for (int i : asymmetry_parameters(model.kind))
       if (x[i] != 0) entry[kParameterNames[i]] = x[i];
+    const std::size_t j = joints.size();
+    if (j < model.covariance.size() && model.covariance[j]) entry["covariance"] = covariance_to_json(*model.covariance[j]);
     joints.push_back(std::move(entry));
   }
   section["joints"] = std::move(joints);

@@ -11,8 +11,13 @@ profile = json.loads(re.sub(r'("(?:\\.|[^"\\])*")|//[^\n]*|/\*.*?\*/', lambda m:
 friction = profile["friction"]
 print("friction", friction["model"], friction.get("update", "-"), len(friction["joints"]), "joints")
 for j, entry in enumerate(friction["joints"], 1):
+    covariance = entry.pop("covariance", None)
     ok = all(isinstance(v, (int, float)) and v == v for v in entry.values())
-    print(f"  joint {j}:", ",".join(sorted(entry)), "finite" if ok else "NOT FINITE")
+    if covariance is not None:  # the steady-state parameters' covariance: named, square, finite
+        names, matrix = covariance["parameters"], covariance["matrix"]
+        ok = ok and len(matrix) == len(names) and all(len(r) == len(names) and all(x == x for x in r) for r in matrix)
+    print(f"  joint {j}:", ",".join(sorted(entry)), "finite" if ok else "NOT FINITE",
+          "covariance of " + ",".join(covariance["parameters"]) if covariance else "no covariance")
 for p in profile.get("provenance", []):
     d = p["details"]
     print("provenance", p["tool"], len(d["logs"]), "log", d["model"], d["method"],

@@ -34,6 +34,12 @@ struct CalibrateStreamsOptions {
   double max_rise = 0;
   // Refuse, writing nothing, when a max looks like a contact.
   bool reject_contact = false;
+  // mu's moving rows count beyond this many standard deviations of the profile's friction
+  // model (CalibrationOptions::friction_band, built from the profile's friction covariances
+  // when calibration.friction_band is empty), >= 0; 0: none. Three covers the fitted static
+  // level being off by the 2-3 uncertainties seen where the data are thin (a creep through
+  // the Stribeck dip), while at speed, where the fit is tight, the band stays hundredths of a Nm.
+  double friction_band_sigmas = 3;
   ReportFormat format = ReportFormat::text;
   // The profile to compare with and update ("": none, report only); where the updated profile
   // goes ("": the profile itself, "-": standard output, else a new file); dry_run: report only.

@@ -12,6 +12,7 @@
 
 #include "momentum/detect/motion.hpp"
 #include "momentum/detect/tail.hpp"
+#include "momentum/detect/friction_band.hpp"
 #include "momentum/detect/thresholds.hpp"
 
 namespace momentum::detect {
@@ -214,6 +215,10 @@ struct CalibrationOptions {
   // a push by hand rises within a few tenths of a second. Drift slower than the chosen drift
   // time does not count as a contact; a contact rising slower is seen smaller.
   double contact_rise = 0.3;
+  // Signal::mu: the friction model's uncertainty (friction_band.hpp). A moving row counts by how
+  // far |mu| lies beyond the band at its speed; the thresholds record the band's sigmas, and the
+  // detector widens the moving threshold by the same band. Empty: none.
+  FrictionBand friction_band;
   bool IsValid(std::string* why) const;
 };
 
@@ -252,6 +257,8 @@ struct CalibrationResult {
   ThresholdRule rule = ThresholdRule::rate;
   double false_alarms_per_hour = 0;  // the rate rule's target
   std::vector<double> rest_drift_candidates;  // s
+  // Per joint, the friction band's half-width near standstill, Nm (empty without a band).
+  std::vector<double> friction_band_static;
   // Human-readable notes (a joint never at rest, no dq columns, ...), one line each.
   std::vector<std::string> notes;
   // Maxima that look like a contact (see CalibrationOptions::contact_ratio), one line each.
@@ -312,8 +319,11 @@ class Calibrator {
       } else if (state == MotionState::slow) {
         J.slow.add(x[j], t, dt, where);
       } else {
-        J.moving.add(x[j], t, dt, where);
-        if (dq && options_.envelope) J.envelope.add(std::fabs(dq[j]), std::fabs(x[j]));
+        // Beyond the friction model's own uncertainty at this speed (0 without a band).
+        const double widen = signal_ == Signal::mu && dq ? options_.friction_band.width(j, dq[j]) : 0.0;
+        const double beyond = widen > 0 && !std::isnan(x[j]) ? std::max(0.0, std::fabs(x[j]) - widen) : x[j];
+        J.moving.add(beyond, t, dt, where);
+        if (dq && options_.envelope) J.envelope.add(std::fabs(dq[j]), std::fabs(beyond));
       }
     }
   }

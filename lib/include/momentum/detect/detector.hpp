@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "momentum/detect/events.hpp"
+#include "momentum/detect/friction_band.hpp"
 #include "momentum/detect/motion.hpp"
 #include "momentum/detect/thresholds.hpp"
 
@@ -40,6 +41,10 @@ struct DetectorOptions {
   bool use_envelope = true;
   // Seconds from the first row during which no joint fires (the observer settles), >= 0.
   double skip = 0;
+  // Signal::mu: widens a moving joint's threshold and band by the friction model's uncertainty
+  // at its speed (friction_band.hpp). Must be the band the thresholds were calibrated with
+  // (friction_band_for builds it from the profile); empty: none.
+  FrictionBand friction_band;
   bool IsValid(std::string* why) const;
 };
 

@@ -23,6 +23,8 @@ struct PlotOptions {
   double from = -INFINITY;        // time window, s
   double to = INFINITY;
   std::string title;              // empty: none
+  // The band mu's thresholds were calibrated with (plot_thresholds gives it); empty: none.
+  FrictionBand friction_band;
   bool IsValid(std::string* why) const;
 };
 

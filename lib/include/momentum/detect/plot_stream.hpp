@@ -35,9 +35,12 @@ PlotColumns plot_columns(const stream::Reader& in, const std::vector<Signal>& si
 
 // The thresholds of each of `signals` from the profile at `profile_path` (empty: none), nullopt
 // for a signal the profile has none for (warned about through momentum::warn: no band is
-// drawn). Throws what model::load_profile and thresholds_from_profile throw.
+// drawn). `friction_band` (when non-null) gets the band mu's thresholds were calibrated with
+// (friction_band.hpp), for PlotOptions::friction_band. Throws what model::load_profile,
+// thresholds_from_profile and friction_band_from_profile throw.
 std::vector<std::optional<Thresholds>> plot_thresholds(const std::string& profile_path,
-                                                       const std::vector<Signal>& signals);
+                                                       const std::vector<Signal>& signals,
+                                                       FrictionBand* friction_band = nullptr);
 
 // Reads the rows of `in` into the figure of `view` (not force) and returns its gnuplot script,
 // which draws `output` with `events` and the `truth` contacts marked. Rows whose time goes

@@ -8,6 +8,7 @@
 //     "mu": {
 //       "rest": {"velocity": 0.01, "time": 0.5, "hangover": 0.1},  // rad/s, s, s
 //       "margin": {"nm": 0.5},                             // or {"percent": 10}
+//       "friction_band": 3,                                // mu only, optional (friction_band.hpp)
 //       "joints": [
 //         {"moving": 2.6, "band": 1.1,                     // Nm
 //          "slow": 3.9, "slow_band": 2.0,                  // Nm, optional
@@ -85,6 +86,10 @@ struct Thresholds {
   // static friction that does not change until it moves, while a friction model driven by the
   // velocity's noise switches between -tau_c and tau_c; compensating at rest adds that noise.
   bool rest_raw = false;
+  // Signal::mu: standard deviations of the friction model's steady state by which a moving
+  // joint's threshold widens (friction_band.hpp; the band comes from the profile's friction
+  // covariances). 0: none. >= 0.
+  double friction_band = 0;
   std::vector<JointThreshold> joints;  // joint 1 first
   // The margin as calibrated, for reports: exactly one of these is set when known.
   std::optional<double> margin_nm;
@@ -103,8 +108,8 @@ std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document
 // The JSON entry of `thresholds` (the object under "thresholds"/<signal>).
 nlohmann::json thresholds_to_json(const Thresholds& thresholds);
 
-// Stores `thresholds` under document["thresholds"][signal]: the entry's "rest", "margin" and
-// "joints" are replaced; its other keys (the "classify" rule that contact/classify.hpp owns)
+// Stores `thresholds` under document["thresholds"][signal]: the entry's "rest", "margin",
+// "friction_band" and "joints" are replaced; its other keys (the "classify" rule that contact/classify.hpp owns)
 // and the other signals' entries stay. Throws momentum::Error when "thresholds" exists and is
 // not an object.
 void store_thresholds(nlohmann::json& document, const Thresholds& thresholds);

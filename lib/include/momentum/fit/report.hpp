@@ -75,8 +75,14 @@ nlohmann::json report_json(const FitReport& report);
 // what LuGre gains over it). Ends with a newline.
 std::string report_text(const FitReport& report);
 
+// The covariance of a fit's free steady-state parameters (sigma2, tau_c, tau_s, w_s, delta_c,
+// delta_s), from their reported uncertainties (ParameterEstimate::uncertainty, which holds the
+// discretization and velocity-noise shifts besides the standard error) and the fit's
+// correlations. nullopt when the fit has none (covariance not computed, or not finite).
+std::optional<friction::SteadyCovariance> steady_covariance(const ModelFit& fit);
+
 // The profile's "friction" section after the fit: the current section (may be null) with the
-// fitted joints replaced. The model kind and options of the current section are kept; a new
+// fitted joints replaced, each with its steady_covariance when known. The model kind and options of the current section are kept; a new
 // section gets `options`. `joints` is the robot's number of joints. Throws momentum::Error
 // when the result would be incomplete or mixed: no current section and not every joint fitted,
 // or a current section of another model kind (or another joint count) and not every joint

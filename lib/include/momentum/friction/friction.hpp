@@ -13,10 +13,15 @@
 //                            "tau_c": 7.83, "tau_s": 4.00, "w_s": 0.0978,
 //                            "delta_c": 0.4, "delta_s": 0.2}, ...]}   // optional asymmetry
 // delta_c and delta_s (lugre.hpp) are optional, 0 when absent; Coulomb-viscous reads delta_c.
+// A joint may carry the covariance its fit reports for the parameters that set the steady-state
+// friction (mo-lugre-fit writes it; absent: unknown):
+//   "covariance": {"parameters": ["sigma2", "tau_c", "tau_s", "w_s"],
+//                  "matrix": [[6.6e-7, ...], ...]}          // in the parameters' units squared
 #pragma once
 
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,11 +49,21 @@ struct Options {
   bool IsValid(std::string* why) const;
 };
 
+// The covariance of the parameters that set a joint's steady-state friction (sigma2, tau_c,
+// tau_s, w_s, delta_c, delta_s: any subset; sigma0 and sigma1 shape only the transients), as
+// the fit reports it. One-sigma units squared (Nm^2, Nm^2 s^2/rad^2, ...).
+struct SteadyCovariance {
+  std::vector<int> parameters;  // indices into kParameterNames, each in 2..7, no repeats
+  std::vector<double> matrix;   // parameters.size()^2, row-major, symmetric, diagonal >= 0
+};
+
 // A friction model for every joint of a chain, in chain order (joint 1 nearest the root).
 struct FrictionModel {
   Kind kind = Kind::lugre;
   Options options;
   std::vector<Parameters<double>> joints;
+  // Empty, or one per joint: the steady-state parameters' covariance when known.
+  std::vector<std::optional<SteadyCovariance>> covariance;
 
   // Checks options and every joint's parameters (see IsValid(Kind, ...)); the reason names
   // the joint (1-based).
@@ -64,8 +79,11 @@ FrictionModel friction_from_json(const nlohmann::json& section,
                                  std::vector<std::string>* warnings = nullptr);
 
 // The section for a model: "model", "update" (LuGre), the velocity options when non-zero, and
-// per joint the parameters that the model uses (delta_c, delta_s only when non-zero).
+// per joint the parameters that the model uses (delta_c, delta_s only when non-zero) and the
+// covariance when known.
 nlohmann::json to_json(const FrictionModel& model);
+// A joint's "covariance" entry.
+nlohmann::json covariance_to_json(const SteadyCovariance& covariance);
 
 // One joint's friction with its state (LuGre bristle deflection, velocity filter).
 template <class T>
@@ -125,6 +143,12 @@ class JointFriction {
   T z_ = T(0);
   T w_ = T(0);
 };
+
+// One-sigma uncertainty of the steady-state friction torque at constant velocity w (rad/s), Nm:
+// the first-order propagation of `covariance` through |F(w)|, where F is the Stribeck curve
+// plus viscous term (LuGre and Stribeck) or Coulomb plus viscous term. At w = 0 the limit from
+// either side (the static level's uncertainty).
+double steady_friction_sd(Kind kind, const Parameters<double>& p, const SteadyCovariance& covariance, double w);
 
 // One evaluator per joint of `model`, in chain order.
 std::vector<JointFriction<double>> make_joint_frictions(const FrictionModel& model);
