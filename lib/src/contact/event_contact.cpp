@@ -27,10 +27,11 @@ Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds, bool slow) {
 }
 
 EventContact::EventContact(const model::Model& model, const detect::Thresholds& thresholds,
-                           std::optional<ClassRule> rule, LocatorOptions options)
+                           std::optional<ClassRule> rule, LocatorOptions options, detect::FrictionBand friction_band)
     : rule_(std::move(rule)),
       weight_(noise_scale(thresholds).cwiseInverse()),
       slow_weight_(noise_scale(thresholds, true).cwiseInverse()),
+      friction_band_(std::move(friction_band)),
       rest_rule_(thresholds.rest_rule),
       locator_(model, noise_scale(thresholds), options),
       window_(static_cast<std::size_t>(model.nq)),
@@ -48,6 +49,10 @@ void EventContact::add(double t, const double* q, const double* x, const double*
     if (dq && std::abs(dq[j]) < rest_rule_.velocity) last_slow_[j] = t;
     const bool slow = t - last_slow_[j] <= rest_rule_.hangover;
     row_weight_[j] = (slow ? slow_weight_ : weight_)[static_cast<Eigen::Index>(j)];
+    if (!slow && dq && friction_band_.sigmas() > 0) {
+      const double model_sd = friction_band_.width(j, dq[j]) / friction_band_.sigmas();
+      row_weight_[j] = 1 / std::hypot(1 / row_weight_[j], model_sd);
+    }
   }
   window_.add(t, q, x, row_weight_.data());
   t_last_ = t;
@@ -127,7 +132,10 @@ detect::AnnotatorFactory annotator_factory(LocatorOptions options, std::string p
              -> std::unique_ptr<detect::EventAnnotator> {
     auto rule = rule_from_profile(profile.document, detect::signal_name(thresholds.signal), thresholds.joints.size(),
                                   profile_path);
-    return std::make_unique<EventContact>(chain, thresholds, std::move(rule), options);
+    detect::FrictionBand band;
+    if (thresholds.signal == detect::Signal::mu)
+      band = detect::friction_band_from_profile(profile.document, thresholds.friction_band, profile_path);
+    return std::make_unique<EventContact>(chain, thresholds, std::move(rule), options, std::move(band));
   };
 }
 

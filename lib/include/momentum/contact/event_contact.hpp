@@ -22,6 +22,7 @@
 #include "momentum/contact/locate.hpp"
 #include "momentum/contact/window.hpp"
 #include "momentum/detect/events.hpp"
+#include "momentum/detect/friction_band.hpp"
 #include "momentum/detect/stream_detector.hpp"
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/model/model.hpp"
@@ -39,8 +40,11 @@ class EventContact final : public detect::EventAnnotator {
  public:
   // `model` must outlive this; its nq must equal the thresholds' joints (momentum::Error
   // otherwise). `rule`: the calibrated class rule, none: events are not classified.
+  // `friction_band`: the band the thresholds were calibrated with (detect/friction_band.hpp);
+  // a moving joint's noise scale grows by it at the row's speed (one standard deviation of the
+  // friction model's steady state added in quadrature).
   EventContact(const model::Model& model, const detect::Thresholds& thresholds, std::optional<ClassRule> rule,
-               LocatorOptions options = {});
+               LocatorOptions options = {}, detect::FrictionBand friction_band = {});
 
   // Every row, before the detector's step on it: t (s), q (nq), residual x (nq, the detector's
   // signal), velocities dq (nq, rad/s, or null). A joint that is slow (under the rest velocity,
@@ -62,6 +66,7 @@ class EventContact final : public detect::EventAnnotator {
   void fill(detect::Event& event, bool whole);
   std::optional<ClassRule> rule_;
   Eigen::VectorXd weight_, slow_weight_;  // 1 / noise scale, moving and slow
+  detect::FrictionBand friction_band_;
   detect::RestRule rest_rule_;
   Locator locator_;
   ContactWindow window_;
