@@ -46,7 +46,10 @@ night() {  # label day [--max-increase P]
   local verdict="kept"
   [[ $before != "$after" ]] && verdict="replaced"
   local reason
-  reason=$(grep -E 'INSTALLED|KEPT' "$backups/nightly.log" | tail -1 | sed -E 's/^[^ ]+ //; s/(INSTALLED|KEPT) .*: /\1: /; s/INSTALLED.*/INSTALLED/' | sed "s|$tmp|TMP|g")
+  # (Which thresholds grew, and by how much, is the sampling noise of 30 s days: not shown.)
+  reason=$(grep -E 'INSTALLED|KEPT' "$backups/nightly.log" | tail -1 |
+    sed -E 's/^[^ ]+ //; s/(INSTALLED|KEPT) [^:]*: /\1: /; s/INSTALLED.*/INSTALLED/; s/(grew by more than [0-9.]+%): .*/\1/' |
+    sed "s|$tmp|TMP|g")
   echo "$label: status $status, profile $verdict, backups $(ls "$backups"/paper-arm.*.json 2> /dev/null | wc -l), $reason"
 }
 
