@@ -183,7 +183,7 @@ if ((script)); then
   /usr/bin/time -o "$work/script/time" -f "%e %U %S %M" "$here/share/momentum/examples/nightly-recalibrate.sh" \
     -p "$work/script/ur5-sim.json" --jobs 2 --torque-held --json "$work/script/night.jsonl" "${logs[@]}" \
     2> "$work/script/stderr" || true
-  read -r wall user sys rss < "$work/script/time"
+  read -r wall user sys rss < <(tail -n 1 "$work/script/time")  # (GNU time may first say the exit status)
   python3 - "$work/script/night.jsonl" "$wall" "$user" "$sys" "$rss" <<'PY'
 import json, sys
 line = json.loads(open(sys.argv[1]).read().splitlines()[-1])
