@@ -364,3 +364,37 @@ TEST(FrictionFit, ParameterNames) {
   EXPECT_EQ(b.upper[1], 500.0);
   EXPECT_EQ(b.upper[5], 0.1);
 }
+
+// A LuGre fit left in the corner without a Stribeck effect (w_s under every counted speed, tau_s
+// at its lower bound: the cost is flat there, as a search on a subset of a long log can leave
+// it) is worse than the Stribeck fit of the same data; refit_from_static starts from the
+// Stribeck fit and recovers the true basin.
+TEST(FrictionFit, LugreMissedBasinIsRefittedFromTheStribeckFit) {
+  SyntheticOptions so;
+  so.r_noise = 0.02;
+  so.dt = 0.001;
+  so.samples = 20000;
+  const mf::Parameters<double> truth{6e4, 300, 1.2, 2.2, 2.9, 0.05};
+  const auto data = make_synthetic(truth, kFirstOrder, so);
+  const auto o = quick_options();
+  fit::JointFit r = fit::fit_joint(data.series, kFirstOrder, o, 3);
+  ASSERT_TRUE(r.static_model);
+  const fit::JointFit found = r;
+  // The missed basin: what the search of the simulated day's joint 5 returned, in this box.
+  r.model.parameters.tau_s = o.bounds.lower[4];
+  r.model.parameters.w_s = o.bounds.lower[5];
+  r.model.parameters.sigma1 = o.bounds.lower[1];
+  r.model.metrics = fit::evaluate_fit(data.series, kFirstOrder, mf::Kind::lugre, r.model.parameters, o.friction);
+  ASSERT_GT(r.model.metrics.rms, r.static_model->metrics.rms) << describe(*r.static_model);
+  fit::refit_from_static(r, data.series, kFirstOrder, o, 3);
+  SCOPED_TRACE(describe(r.model) + describe(*r.static_model));
+  EXPECT_NE(r.model.polish_message.find("refitted from the Stribeck fit"), std::string::npos);
+  EXPECT_LE(r.model.metrics.rms, 1.01 * found.model.metrics.rms);
+  EXPECT_NEAR(r.model.parameters.tau_s, truth.tau_s, 0.05);
+  EXPECT_NEAR(r.model.parameters.w_s, truth.w_s, 0.005);
+  // A fit no worse than the Stribeck one is left alone.
+  fit::JointFit kept = found;
+  fit::refit_from_static(kept, data.series, kFirstOrder, o, 3);
+  EXPECT_TRUE(same_bits(kept.model.metrics.cost, found.model.metrics.cost));
+  EXPECT_EQ(kept.model.polish_message, found.model.polish_message);
+}

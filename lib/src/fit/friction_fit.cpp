@@ -5,10 +5,12 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <thread>
 
+#include "momentum/core/number.hpp"
 #include "momentum/core/random.hpp"
 #include "momentum/fit/notes.hpp"
 #include "momentum/fit/polish.hpp"
@@ -103,9 +105,11 @@ namespace {
 // Fits model `kind` to one joint: the problem, the global search over the box (on a subset of
 // the samples on long data), the polish, the uncertainty and the notes. `seed` seeds the search
 // and the noise draws; `joint` names the joint in progress and errors.
+// `starts` (physical units, free parameters): no global search, and no subset: each start is
+// polished on every sample.
 ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind kind,
                    const FitOptions& options, std::uint64_t seed, int joint,
-                   const JointProgressCallback& progress) {
+                   const JointProgressCallback& progress, const std::vector<std::vector<double>>& starts = {}) {
   const auto start = std::chrono::steady_clock::now();
   Problem problem(data, gains, kind, options);
   ModelFit fit;
@@ -115,7 +119,9 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
 
   // The search's samples: all of them, or on long data a constant-size set of windows.
   std::vector<std::size_t> segment_start, origin;
-  const JointSeries subset = search_subset(data, gains, options.search_subset, &segment_start, &fit.subset, &origin);
+  SubsetOptions subset_options = options.search_subset;
+  if (!starts.empty()) subset_options.max_samples = std::numeric_limits<std::size_t>::max();
+  const JointSeries subset = search_subset(data, gains, subset_options, &segment_start, &fit.subset, &origin);
   std::optional<Problem> subset_problem;
   if (fit.subset.used) {
     subset_problem.emplace(subset, gains, kind, options);
@@ -140,9 +146,19 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
       progress({joint, stage, s});
     };
   }
-  fit.global = minimize_global(
-      [&](std::span<const double> x) { return search.cost(search.assemble(x.data(), nullptr)); },
-      box, global);
+  if (starts.empty()) {
+    fit.global = minimize_global(
+        [&](std::span<const double> x) { return search.cost(search.assemble(x.data(), nullptr)); },
+        box, global);
+  } else {
+    fit.global.run_best = starts;
+    for (const auto& start : starts) {
+      const double c = search.cost(search.assemble(start.data(), nullptr));
+      if (!(c >= fit.global.cost)) fit.global.cost = c, fit.global.best = start;
+    }
+    fit.global.evaluations = starts.size();
+    fit.global.message = "no search: " + std::to_string(starts.size()) + " given starts";
+  }
   if (!std::isfinite(fit.global.cost))
     throw Error("joint " + std::to_string(joint) + ": " + friction::kind_name(kind) +
                 " model: the cost is not finite anywhere in the bounds");
@@ -159,6 +175,32 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
   return fit;
 }
 }  // namespace
+
+void refit_from_static(JointFit& r, const JointSeries& data, const observer::Gains& gains, const FitOptions& options,
+                       std::uint64_t seed, const JointProgressCallback& progress) {
+  if (r.model.kind != Kind::lugre || !r.static_model || !(r.static_model->metrics.rms < r.model.metrics.rms)) return;
+  std::vector<std::vector<double>> starts;
+  for (const auto& [sigma0, sigma1] : {std::pair{options.bounds.lower[0], options.bounds.upper[1]},
+                                       std::pair{options.bounds.upper[0], options.bounds.lower[1]}}) {
+      Params p = r.static_model->parameters;
+      p.sigma0 = sigma0;
+      p.sigma1 = sigma1;
+      double x[kParameterCount];
+      p.to_array(x);
+      std::vector<double> start;
+      for (int i : r.model.free) {
+        const auto k = static_cast<std::size_t>(i);
+        start.push_back(std::clamp(x[k], options.bounds.lower[k], options.bounds.upper[k]));
+      }
+      starts.push_back(std::move(start));
+  }
+  const double first_rms = r.model.metrics.rms;
+  ModelFit again = fit_model(data, gains, Kind::lugre, options, seed, data.joint, progress, starts);
+  if (!(again.metrics.cost < r.model.metrics.cost)) return;
+  again.polish_message = "refitted from the Stribeck fit (the first LuGre fit, rms " + core::significant(first_rms, 4) +
+                         " Nm, was worse than it): " + again.polish_message;
+  r.model = std::move(again);
+}
 
 std::vector<double> predict_residual(const JointSeries& data, const observer::Gains& gains,
                                      Kind kind, const Params& p, const friction::Options& options,
@@ -201,6 +243,7 @@ JointFit fit_joint(const JointSeries& data, const observer::Gains& gains, const 
     result.static_model =
         fit_model(data, gains, Kind::stribeck, options, core::derive_seed(seed, 1), data.joint, progress);
     result.static_seconds = result.static_model->seconds;
+    refit_from_static(result, data, gains, options, core::derive_seed(seed, 0), progress);
   }
   if (options.asymmetric) {
     FitOptions symmetric = options;
@@ -293,6 +336,29 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
   work();
   for (auto& t : pool) t.join();
   for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+  // LuGre fits worse than their joint's Stribeck fit, fitted again (refit_from_static), as
+  // many at once as the tasks above.
+  std::atomic<std::size_t> next_joint{0};
+  std::vector<std::exception_ptr> refit_errors(results.size());
+  auto refit = [&] {
+    for (std::size_t i = next_joint++; i < results.size(); i = next_joint++) {
+      auto& r = results[i];
+      const std::uint64_t seed = core::derive_seed(options.global.genetic.seed, static_cast<std::uint64_t>(data[i].joint));
+      const auto start = std::chrono::steady_clock::now();
+      try {
+        refit_from_static(r, data[i], gains[i], joint_options[i], core::derive_seed(seed, 0), progress);
+      } catch (...) {
+        refit_errors[i] = std::current_exception();
+      }
+      r.model_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+  };
+  pool.clear();
+  for (std::size_t i = 1; i < count; ++i) pool.emplace_back(refit);
+  refit();
+  for (auto& t : pool) t.join();
+  for (auto& e : refit_errors)
     if (e) std::rethrow_exception(e);
   for (auto& r : results) r.seconds = r.model_seconds + r.static_seconds + r.symmetric_seconds;
   return results;

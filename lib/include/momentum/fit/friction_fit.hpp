@@ -202,6 +202,18 @@ std::vector<double> predict_residual(const JointSeries& data, const observer::Ga
 FitMetrics evaluate_fit(const JointSeries& data, const observer::Gains& gains, friction::Kind kind,
                         const friction::Parameters<double>& p, const friction::Options& options);
 
+// LuGre's steady state is the Stribeck curve, so a LuGre fit (r.model) worse than the joint's
+// Stribeck fit (r.static_model) is a search that missed its basin: typically the corner
+// without a Stribeck effect (w_s under every counted speed), where the cost is flat in tau_s
+// and w_s and no polish leaves it. Fits LuGre again from the Stribeck fit's parameters, the
+// bristles at the two ends of their box (soft and damped, stiff and undamped: the data rarely
+// determine them, and they trade against each other), each start polished on every sample, and
+// keeps the better fit by the cost over all samples; its polish message then says so. Does
+// nothing for another model, without a static fit, or when LuGre is not worse. fit_joint and
+// fit_joints call it.
+void refit_from_static(JointFit& r, const JointSeries& data, const observer::Gains& gains, const FitOptions& options,
+                       std::uint64_t seed, const JointProgressCallback& progress = {});
+
 // Fits `options.kind` (and the static model when asked) to one joint. `seed` seeds the global
 // search (the caller derives one per joint). Throws std::invalid_argument for invalid options
 // or gains, momentum::Error when the data are empty or the fit fails outright.
