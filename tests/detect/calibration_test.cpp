@@ -499,7 +499,7 @@ TEST(Calibrator, FrictionBandTakesACreepWithinTheModelsUncertaintyForNoContact) 
   const FrictionBand band(model, 3);
   ASSERT_FALSE(band.empty());
   EXPECT_NEAR(band.width(0, 0.0), 0.12, 1e-12);
-  EXPECT_NEAR(band.width(0, 0.015), 0.12 * std::exp(-0.09), 1e-12);
+  EXPECT_NEAR(band.width(0, 0.015), 0.12 * std::exp(-0.09), 1e-4);  // tabulated in the dip
   EXPECT_LT(band.width(0, 0.5), 1e-20);
   std::mt19937_64 rng(3);
   std::normal_distribution<double> noise(0.0, 0.01);
@@ -543,4 +543,27 @@ TEST(Calibrator, FrictionBandTakesACreepWithinTheModelsUncertaintyForNoContact) 
   EXPECT_EQ(events(band, 0.0), 0);
   EXPECT_GE(events(FrictionBand{}, 0.0), 1);
   EXPECT_EQ(events(band, 0.3), 1);
+}
+
+TEST(FrictionBand, WidthIsKTimesTheSteadyStateSdAtEverySpeedAndDirection) {
+  // Past 6 w_s the band takes a quadratic in the speed, below it a table: both must agree with
+  // the full propagation, in both directions (delta_c makes them differ).
+  friction::FrictionModel model;
+  model.joints = {friction::Parameters<double>{6e4, 300, 1.2, 2.2, 2.9, 0.05, 0.1, 0.05}};
+  const std::vector<int> parameters{2, 3, 4, 5, 6};
+  std::vector<double> matrix(25, 0.0);
+  const double sd[5] = {0.003, 0.002, 0.04, 0.001, 0.004};
+  for (int a = 0; a < 5; ++a)
+    for (int b = 0; b < 5; ++b) matrix[static_cast<std::size_t>(a * 5 + b)] = (a == b ? 1.0 : 0.3) * sd[a] * sd[b];
+  model.covariance = {friction::SteadyCovariance{parameters, matrix}};
+  const FrictionBand band(model, 3);
+  for (double w : {0.0, 0.0123, 0.02, -0.02, -0.0577, 0.1, 0.2999, 0.3, 0.31, -0.31, 1.0, -1.0, 4.0}) {
+    const double exact = 3 * friction::steady_friction_sd(model.kind, model.joints[0], *model.covariance[0], w);
+    EXPECT_NEAR(band.width(0, w), exact, 1e-3 * exact) << "w " << w;
+  }
+  EXPECT_GT(band.width(0, 1.0), band.width(0, 0.5));  // sigma2's share grows with the speed
+  EXPECT_EQ(band.width(0, NAN), 0.0);
+  EXPECT_EQ(band.width(1, 1.0), 0.0);  // no such joint
+  EXPECT_TRUE(FrictionBand(model, 0).empty());
+  EXPECT_THROW(FrictionBand(model, -1), momentum::Error);
 }

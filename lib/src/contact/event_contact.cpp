@@ -51,7 +51,8 @@ void EventContact::add(double t, const double* q, const double* x, const double*
     row_weight_[j] = (slow ? slow_weight_ : weight_)[static_cast<Eigen::Index>(j)];
     if (!slow && dq && friction_band_.sigmas() > 0) {
       const double model_sd = friction_band_.width(j, dq[j]) / friction_band_.sigmas();
-      row_weight_[j] = 1 / std::hypot(1 / row_weight_[j], model_sd);
+      const double scale = 1 / row_weight_[j];
+      row_weight_[j] = 1 / std::sqrt(scale * scale + model_sd * model_sd);
     }
   }
   window_.add(t, q, x, row_weight_.data());

@@ -12,8 +12,39 @@ namespace momentum::detect {
 FrictionBand::FrictionBand(const friction::FrictionModel& model, double sigmas) : kind_(model.kind), sigmas_(sigmas) {
   if (!(sigmas >= 0) || !std::isfinite(sigmas))
     throw Error("friction band: " + core::significant(sigmas, 6) + " standard deviations (must be >= 0)");
-  for (std::size_t j = 0; j < model.joints.size(); ++j)
-    joints_.push_back(Joint{model.joints[j], j < model.covariance.size() ? model.covariance[j] : std::nullopt});
+  for (std::size_t j = 0; j < model.joints.size(); ++j) {
+    Joint J{model.joints[j], j < model.covariance.size() ? model.covariance[j] : std::nullopt};
+    if (J.covariance) {
+      // Past 6 w_s (exp(-36): nothing of the Stribeck term left) the gradient of |F| is
+      // (tau_c: 1, sigma2: |w|, delta_c: direction), whatever the model; Coulomb-viscous has no
+      // Stribeck term at all.
+      J.fast_from = model.kind == friction::Kind::coulomb_viscous ? 0.0 : 6 * J.parameters.w_s;
+      const auto& c = *J.covariance;
+      const std::size_t n = c.parameters.size();
+      for (double direction : {1.0, -1.0}) {
+        Quadratic& q = direction > 0 ? J.forward : J.backward;
+        auto constant = [direction](int parameter) { return parameter == 3 ? 1.0 : parameter == 6 ? direction : 0.0; };
+        auto slope = [](int parameter) { return parameter == 2 ? 1.0 : 0.0; };
+        for (std::size_t a = 0; a < n; ++a)
+          for (std::size_t b = 0; b < n; ++b) {
+            const int pa = c.parameters[a], pb = c.parameters[b];
+            const double v = c.matrix[a * n + b];
+            q.a += constant(pa) * v * constant(pb);
+            q.b += (constant(pa) * slope(pb) + slope(pa) * constant(pb)) * v;
+            q.c += slope(pa) * v * slope(pb);
+          }
+      }
+    }
+    if (J.covariance && J.fast_from > 0)
+      for (std::size_t k = 0; k <= kTableSteps; ++k) {
+        const double speed = J.fast_from * static_cast<double>(k) / kTableSteps;
+        for (double direction : {1.0, -1.0}) {
+          const double sd = friction::steady_friction_sd(model.kind, J.parameters, *J.covariance, direction * speed);
+          (direction > 0 ? J.forward_table : J.backward_table).push_back(sd * sd);
+        }
+      }
+    joints_.push_back(std::move(J));
+  }
 }
 
 bool FrictionBand::empty() const {

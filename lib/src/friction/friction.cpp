@@ -167,7 +167,9 @@ double steady_friction_sd(Kind kind, const Parameters<double>& p, const SteadyCo
     gradient[6] = direction;
   } else {
     const double x = speed / p.w_s;
-    const double stribeck = std::exp(-x * x);
+    // Beyond 6 w_s the Stribeck term is under 1e-15 of the drop: no exp for the many rows at
+    // speed (the detector asks on every row).
+    const double stribeck = x < 6 ? std::exp(-x * x) : 0.0;
     const double drop = (p.tau_s + direction * p.delta_s) - (p.tau_c + direction * p.delta_c);
     gradient[3] = 1 - stribeck;
     gradient[4] = stribeck;

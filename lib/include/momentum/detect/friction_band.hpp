@@ -40,7 +40,21 @@ class FrictionBand {
   // for a NaN velocity.
   double width(std::size_t j, double w) const {
     if (j >= joints_.size() || !joints_[j].covariance || std::isnan(w)) return 0;
-    return sigmas_ * friction::steady_friction_sd(kind_, joints_[j].parameters, *joints_[j].covariance, w);
+    const Joint& J = joints_[j];
+    const double speed = std::abs(w);
+    // Past the Stribeck dip the variance is a quadratic in the speed (tau_c, sigma2 and
+    // delta_c): the detector asks on every row, most of them at speed.
+    if (speed >= J.fast_from) {
+      const Quadratic& q = w < 0 ? J.backward : J.forward;
+      return sigmas_ * std::sqrt(std::max(0.0, q.a + speed * (q.b + speed * q.c)));
+    }
+    // In the dip, the variance tabulated over the speed and interpolated (within 1e-3 of the
+    // propagation: the table has kTableSteps steps up to fast_from).
+    const std::vector<double>& table = w < 0 ? J.backward_table : J.forward_table;
+    const double at = speed / J.fast_from * kTableSteps;
+    const auto k = std::min(static_cast<std::size_t>(at), kTableSteps - 1);
+    const double f = at - static_cast<double>(k);
+    return sigmas_ * std::sqrt(std::max(0.0, table[k] + f * (table[k + 1] - table[k])));
   }
   // k, the standard deviations; 0 for no band.
   double sigmas() const { return empty() ? 0 : sigmas_; }
@@ -48,10 +62,18 @@ class FrictionBand {
   bool empty() const;
 
  private:
+  // The variance a + b |w| + c w^2 of one direction, Nm^2.
+  struct Quadratic {
+    double a = 0, b = 0, c = 0;
+  };
   struct Joint {
     friction::Parameters<double> parameters;
     std::optional<friction::SteadyCovariance> covariance;
+    double fast_from = INFINITY;  // rad/s: the quadratics hold from here on
+    Quadratic forward, backward;
+    std::vector<double> forward_table, backward_table;  // variance at k fast_from / kTableSteps
   };
+  static constexpr std::size_t kTableSteps = 512;
   friction::Kind kind_ = friction::Kind::lugre;
   double sigmas_ = 0;
   std::vector<Joint> joints_;
