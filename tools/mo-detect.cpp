@@ -75,6 +75,7 @@ int main(int argc, char** argv) {
       options.profile_path = tool.profile();
       options.output = tool.output();
       options.format = format == "jsonl" ? detect::EventFormat::jsonl : detect::EventFormat::csv;
+      options.measure_latency = stats;
       options.comments = {tool.provenance()};
       options.open_input = [&](const std::string& path, stream::ReaderOptions o) { return tool.open_input(path, o); };
       options.open_output = [&](stream::Reader& in) { return tool.open_output(in); };

@@ -249,7 +249,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
         continue;
       }
       if (!row) break;
-      const auto start = clock::now();
+      const auto start = o.measure_latency ? clock::now() : clock::time_point{};
       const double t = row[it];
       if (in->time_mark() == stream::TimeMark::clock_step) {
         // The stream's time policy kept this row as the start of a new time line.
@@ -291,7 +291,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
       }
       if (runner && runner->running()) runner->reap();
       if (contact_runner && contact_runner->running()) contact_runner->reap();
-      latency.add(std::chrono::duration<double, std::micro>(clock::now() - start).count());
+      if (o.measure_latency) latency.add(std::chrono::duration<double, std::micro>(clock::now() - start).count());
       if (watch.signal() != 0) {  // stop reading; rows already read are still detected on
         summary.interrupted = true;
         in->stop();
@@ -307,9 +307,11 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
     summary.events = detector.events();
     if (!idq.empty())
       for (std::size_t j = 0; j < n; ++j) summary.rest_rows.push_back(detector.rest_rows(j));
-    summary.latency_median = latency.quantile(0.5);
-    summary.latency_p99 = latency.quantile(0.99);
-    summary.latency_max = latency.max();
+    if (o.measure_latency) {
+      summary.latency_median = latency.quantile(0.5);
+      summary.latency_p99 = latency.quantile(0.99);
+      summary.latency_max = latency.max();
+    }
     if (runner) {
       summary.on_collision = true;
       summary.hooks_run = runner->launched();

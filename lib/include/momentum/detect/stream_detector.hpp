@@ -72,6 +72,9 @@ struct StreamDetectorOptions {
   // its detection.
   std::string on_collision, on_contact;
   bool any_class = false;
+  // Time every row for the summary's latency figures (two clock reads a row: a tenth of the
+  // detector's own cost); off: they stay 0.
+  bool measure_latency = false;
   // Identification and classification: built when the profile's chain fits the stream and the
   // stream has q<j>; null: none.
   AnnotatorFactory annotator;
@@ -101,7 +104,7 @@ struct StreamDetectorSummary {
   // Per joint, rows at rest; empty when the stream has no dq columns.
   std::vector<std::uint64_t> rest_rows;
   // Time spent per row, us.
-  double latency_median = 0, latency_p99 = 0, latency_max = 0;
+  double latency_median = 0, latency_p99 = 0, latency_max = 0;  // with measure_latency
   // The --on-collision command: whether given, commands started, and those that failed.
   bool on_collision = false;
   std::uint64_t hooks_run = 0, hooks_failed = 0;
