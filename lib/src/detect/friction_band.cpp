@@ -9,11 +9,13 @@
 
 namespace momentum::detect {
 
-FrictionBand::FrictionBand(const friction::FrictionModel& model, double sigmas) : kind_(model.kind), sigmas_(sigmas) {
+FrictionBand::FrictionBand(const friction::FrictionModel& model, double sigmas) : sigmas_(sigmas) {
   if (!(sigmas >= 0) || !std::isfinite(sigmas))
     throw Error("friction band: " + core::significant(sigmas, 6) + " standard deviations (must be >= 0)");
   for (std::size_t j = 0; j < model.joints.size(); ++j) {
-    Joint J{model.joints[j], j < model.covariance.size() ? model.covariance[j] : std::nullopt};
+    Joint J;
+    J.parameters = model.joints[j];
+    if (j < model.covariance.size()) J.covariance = model.covariance[j];
     if (J.covariance) {
       // Past 6 w_s (exp(-36): nothing of the Stribeck term left) the gradient of |F| is
       // (tau_c: 1, sigma2: |w|, delta_c: direction), whatever the model; Coulomb-viscous has no

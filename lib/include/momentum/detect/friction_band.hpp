@@ -74,7 +74,6 @@ class FrictionBand {
     std::vector<double> forward_table, backward_table;  // variance at k fast_from / kTableSteps
   };
   static constexpr std::size_t kTableSteps = 512;
-  friction::Kind kind_ = friction::Kind::lugre;
   double sigmas_ = 0;
   std::vector<Joint> joints_;
 };
