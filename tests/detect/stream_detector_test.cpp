@@ -109,7 +109,7 @@ TEST(StreamDetector, AnnotatorSeesEveryRowAndFillsTheEvents) {
   options.output = output;
   options.on_collision = "echo collision $MOMENTUM_CLASS >> " + hooks;
   options.annotator = [&](const momentum::model::Model& chain, const momentum::model::Profile&,
-                          const Thresholds& thresholds) -> std::unique_ptr<EventAnnotator> {
+                          const Thresholds& thresholds, const FrictionBand&) -> std::unique_ptr<EventAnnotator> {
     EXPECT_EQ(chain.nq, 1);
     EXPECT_EQ(thresholds.joints.size(), 1u);
     return std::make_unique<FakeAnnotator>(&rows);

@@ -129,14 +129,12 @@ std::optional<std::string_view> EventContact::decide() {
 
 detect::AnnotatorFactory annotator_factory(LocatorOptions options, std::string profile_path) {
   return [options, profile_path = std::move(profile_path)](const model::Model& chain, const model::Profile& profile,
-                                                            const detect::Thresholds& thresholds)
+                                                            const detect::Thresholds& thresholds,
+                                                            const detect::FrictionBand& band)
              -> std::unique_ptr<detect::EventAnnotator> {
     auto rule = rule_from_profile(profile.document, detect::signal_name(thresholds.signal), thresholds.joints.size(),
                                   profile_path);
-    detect::FrictionBand band;
-    if (thresholds.signal == detect::Signal::mu)
-      band = detect::friction_band_from_profile(profile.document, thresholds.friction_band, profile_path);
-    return std::make_unique<EventContact>(chain, thresholds, std::move(rule), options, std::move(band));
+    return std::make_unique<EventContact>(chain, thresholds, std::move(rule), options, band);
   };
 }
 

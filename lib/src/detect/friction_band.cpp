@@ -45,16 +45,11 @@ FrictionBand::FrictionBand(const friction::FrictionModel& model, double sigmas) 
           (direction > 0 ? J.forward_table : J.backward_table).push_back(sd * sd);
         }
       }
+    empty_ = empty_ && !(sigmas > 0 && J.covariance);
     joints_.push_back(std::move(J));
   }
 }
 
-bool FrictionBand::empty() const {
-  if (!(sigmas_ > 0)) return true;
-  for (const auto& joint : joints_)
-    if (joint.covariance) return false;
-  return true;
-}
 
 FrictionBand friction_band_from_profile(const nlohmann::json& document, double sigmas, const std::string& where) {
   if (!(sigmas > 0) || !document.is_object() || !document.contains("friction")) return {};

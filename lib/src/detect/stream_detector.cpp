@@ -190,7 +190,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
       }
       if (chain && static_cast<std::size_t>(chain->nq) == n) {
         iq = stream::column_indices(in->columns(), stream::joint_columns("q", n), in->name());
-        identify = o.annotator(*chain, chain_profile, thresholds);
+        identify = o.annotator(*chain, chain_profile, thresholds, detector_options.friction_band);
       }
     }
 

@@ -57,9 +57,9 @@ class FrictionBand {
     return sigmas_ * std::sqrt(std::max(0.0, table[k] + f * (table[k + 1] - table[k])));
   }
   // k, the standard deviations; 0 for no band.
-  double sigmas() const { return empty() ? 0 : sigmas_; }
+  double sigmas() const { return empty_ ? 0 : sigmas_; }
   // True when no joint has a band.
-  bool empty() const;
+  bool empty() const { return empty_; }
 
  private:
   // The variance a + b |w| + c w^2 of one direction, Nm^2.
@@ -75,6 +75,7 @@ class FrictionBand {
   };
   static constexpr std::size_t kTableSteps = 512;
   double sigmas_ = 0;
+  bool empty_ = true;
   std::vector<Joint> joints_;
 };
 

@@ -43,10 +43,12 @@ class EventAnnotator {
 };
 
 // Builds the annotator for a stream of `thresholds.joints.size()` joints from the profile's
-// chain (chain.nq equals that count) and the profile. Throws momentum::Error for a bad class
-// rule in the profile.
+// chain (chain.nq equals that count), the profile, and the friction band the detector judges
+// with (friction_band.hpp; empty: none). Throws momentum::Error for a bad class rule in the
+// profile.
 using AnnotatorFactory = std::function<std::unique_ptr<EventAnnotator>(
-    const model::Model& chain, const model::Profile& profile, const Thresholds& thresholds)>;
+    const model::Model& chain, const model::Profile& profile, const Thresholds& thresholds,
+    const FrictionBand& friction_band)>;
 
 enum class EventFormat { csv, jsonl };
 
