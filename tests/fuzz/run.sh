@@ -28,30 +28,38 @@ mkdir -p "$work/generated/momentum"
 # The header CMake generates from version.hpp.in (this script builds without CMake).
 version=$(sed -n 's/^project(momentum VERSION \([0-9.]*\).*/\1/p' "$src/CMakeLists.txt")
 sed "s/@PROJECT_VERSION@/$version/" "$src/lib/include/momentum/version.hpp.in" > "$work/generated/momentum/version.hpp"
-flags=(-std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -I"$src/lib/include"
-  -I"$work/generated")
-sources=("$src"/lib/src/can/*.cpp "$src"/lib/src/stream/*.cpp "$src"/lib/src/core/*.cpp)
+flags=(-std=c++20 -g -O1 -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
+  -I"$src/lib/include" -I"$work/generated" -isystem /usr/include/eigen3)
+link_flags=(-fsanitize=fuzzer,address,undefined)
+common_sources=("$src"/lib/src/stream/*.cpp "$src"/lib/src/core/*.cpp)
 # URDF to chain needs these of model/; dynamics and the observer's stream code (two thirds of the
 # instrumented compile) it does not.
-model_sources=("$src"/lib/src/model/{model,collision,inertial_corrections,profile,profile_text}.cpp "$src"/lib/src/stream/*.cpp
-  "$src"/lib/src/core/*.cpp)
-model_flags=(-isystem /usr/include/eigen3)
-model_libs=(-lurdfdom_model -lconsole_bridge)
+model_sources=("$src"/lib/src/model/{model,collision,inertial_corrections,profile,profile_text}.cpp)
 targets=(candump dbc urdf)
+sources_of() {
+  case $1 in
+    urdf) printf '%s\n' "$src/tests/fuzz/urdf_fuzz.cpp" "${model_sources[@]}" "${common_sources[@]}" ;;
+    *) printf '%s\n' "$src/tests/fuzz/$1_fuzz.cpp" "$src"/lib/src/can/*.cpp "${common_sources[@]}" ;;
+  esac
+}
+object_of() { local rel=${1#"$src"/}; echo "$work/obj/${rel//\//_}.o"; }
 status=0
-# The targets build at once (a minute of instrumented compiling otherwise spent one core at a time).
+# Each source compiles once, on every core (the targets share most of them), then each target links.
 echo "fuzz: building ${targets[*]}"
-pids=()
+mkdir -p "$work/obj"
+printf '%s\n' "${flags[@]}" > "$work/compile.rsp"
+export work src cxx
+for target in "${targets[@]}"; do sources_of "$target"; done | sort -u |
+  xargs -P "$(nproc)" -I{} bash -c 'rel=${1#"$src"/}; "$cxx" @"$work/compile.rsp" -c "$1" -o "$work/obj/${rel//\//_}.o"' _ {} ||
+  { echo "fuzz: a source did not compile" >&2; exit 1; }
 for target in "${targets[@]}"; do
-  if [[ $target == urdf ]]; then
-    "$cxx" "${flags[@]}" "${model_flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${model_sources[@]}" \
-      "${model_libs[@]}" -o "$work/fuzz_$target" &
-  else
-    "$cxx" "${flags[@]}" "$src/tests/fuzz/${target}_fuzz.cpp" "${sources[@]}" -o "$work/fuzz_$target" &
-  fi
-  pids+=($!)
+  objects=()
+  while read -r source; do objects+=("$(object_of "$source")"); done < <(sources_of "$target")
+  libs=()
+  [[ $target == urdf ]] && libs=(-lurdfdom_model -lconsole_bridge)
+  "$cxx" "${link_flags[@]}" "${objects[@]}" "${libs[@]}" -o "$work/fuzz_$target" ||
+    { echo "fuzz: $target did not link" >&2; exit 1; }
 done
-for pid in "${pids[@]}"; do wait "$pid" || { echo "fuzz: a target did not build" >&2; exit 1; }; done
 for target in "${targets[@]}"; do
   corpus="$work/corpus_$target"
   mkdir -p "$corpus"
