@@ -252,13 +252,64 @@ TEST(Classify, PulseWidthAndLearntRule) {
   EXPECT_NEAR(rule.width, std::sqrt(0.04 * 0.3), 1e-12);  // the widest of the two best cuts
   EXPECT_EQ(rule.collision_level, (std::vector<double>{7, 3}));
   EXPECT_DOUBLE_EQ(rule.accuracy, 1.0);
-  EXPECT_EQ(mc::classify(rule, 0.4, std::vector<double>{8, 1}), mc::EventClass::collision);  // over a level
-  EXPECT_EQ(mc::classify(rule, 0.4, std::vector<double>{6, 1}), mc::EventClass::contact);
+  EXPECT_EQ(rule.rise_exponent, 0.0);  // no example has a rise
+  EXPECT_EQ(mc::classify(rule, 0.4, NAN, std::vector<double>{8, 1}), mc::EventClass::collision);  // over a level
+  EXPECT_EQ(mc::classify(rule, 0.4, NAN, std::vector<double>{6, 1}), mc::EventClass::contact);
   // Levels that teach nothing are left out.
   examples[1].width = 0.05;
   EXPECT_TRUE(mc::learn_rule(examples, 2).collision_level.empty());
   const std::vector<mc::ClassExample> one_class = {{0.1, {1, 1}, true}};
   EXPECT_THROW(mc::learn_rule(one_class, 2), momentum::Error);
+}
+
+// Collisions that pin the arm against the obstacle hold their force as long as a push does
+// (widths 0.4-0.6 s) but rise as fast as an impact: the width alone gets them wrong, the rise
+// weighs them right, and the learnt exponent makes the rise-weighted widths of every example
+// fall on the right side of the cut.
+TEST(Classify, RiseWeighsWhenTheWidthAloneCannotSeparate) {
+  std::vector<mc::ClassExample> examples;
+  for (const double w : {0.05, 0.07, 0.09, 0.11}) examples.push_back({w, {1}, true, 0.03});        // impacts
+  for (const double w : {0.4, 0.5, 0.6}) examples.push_back({w, {1}, true, 0.035});                 // pinned
+  for (const double w : {0.3, 0.45, 0.55, 0.7, 0.9}) examples.push_back({w, {1}, false, 0.25});     // pushes
+  examples.push_back({0.5, {1}, false, 0.15});
+  examples.push_back({0.35, {1}, false, 0.4});
+  const mc::ClassRule rule = mc::learn_rule(examples, 1);
+  EXPECT_GT(rule.rise_exponent, 0.5);
+  EXPECT_GT(rule.rise_reference, 0.03);
+  EXPECT_LT(rule.rise_reference, 0.25);
+  EXPECT_DOUBLE_EQ(rule.accuracy, 1.0);
+  for (const auto& e : examples)
+    EXPECT_EQ(mc::classify(rule, e.width, e.rise, {}) == mc::EventClass::collision, e.collision)
+        << "width " << e.width << " rise " << e.rise;
+  // The weighted width by its definition.
+  EXPECT_NEAR(mc::rise_weighted_width(rule, 0.2, 2 * rule.rise_reference), 0.2 * std::pow(2.0, rule.rise_exponent),
+              1e-12);
+  EXPECT_NEAR(mc::rise_weighted_width(rule, 0.2, 0.0),
+              0.2 * std::pow(mc::kShortestRise / rule.rise_reference, rule.rise_exponent), 1e-12);
+  // The width alone on the same examples: the pinned collisions are called contacts.
+  std::vector<mc::ClassExample> without_rise = examples;
+  for (auto& e : without_rise) e.rise = NAN;
+  EXPECT_LT(mc::learn_rule(without_rise, 1).accuracy, 0.9);
+
+  // A rise that points the wrong way (slower: more often a collision) is not weighed.
+  std::vector<mc::ClassExample> backwards = examples;
+  for (auto& e : backwards) e.rise = e.collision ? 0.3 : 0.03;
+  EXPECT_EQ(mc::learn_rule(backwards, 1).rise_exponent, 0.0);
+
+  // The profile entry keeps the rise's weight, and a broken one is refused.
+  const nlohmann::json document = {{"thresholds", {{"mu", {{"classify", mc::rule_to_json(rule)}}}}}};
+  const auto read = mc::rule_from_profile(document, "mu", 1, "arm.json");
+  ASSERT_TRUE(read.has_value());
+  EXPECT_DOUBLE_EQ(read->rise_exponent, rule.rise_exponent);
+  EXPECT_DOUBLE_EQ(read->rise_reference, rule.rise_reference);
+  nlohmann::json broken = document;
+  broken["thresholds"]["mu"]["classify"]["rise_reference"] = 0;
+  try {
+    mc::rule_from_profile(broken, "mu", 1, "arm.json");
+    ADD_FAILURE() << "a rise exponent without a reference was accepted";
+  } catch (const momentum::Error& e) {
+    EXPECT_STREQ(e.what(), "arm.json: thresholds.mu.classify: rise_reference must be a positive number of seconds");
+  }
 }
 
 }  // namespace

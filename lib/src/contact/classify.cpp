@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
+
+#include <Eigen/Cholesky>
 
 #include "momentum/core/error.hpp"
 
@@ -50,24 +53,80 @@ bool ClassRule::IsValid(std::string* why) const {
     return false;
   };
   if (!(width > 0) || !std::isfinite(width)) return fail("width must be a positive number of seconds");
+  if (!(rise_exponent >= 0) || !std::isfinite(rise_exponent)) return fail("rise_exponent must be 0 or more");
+  if (rise_exponent > 0 && (!(rise_reference > 0) || !std::isfinite(rise_reference)))
+    return fail("rise_reference must be a positive number of seconds");
   for (std::size_t j = 0; j < collision_level.size(); ++j)
     if (!(collision_level[j] > 0)) return fail("collision level of joint " + std::to_string(j + 1) + " must be positive");
   return true;
 }
 
-EventClass classify(const ClassRule& rule, double width, std::span<const double> peaks) {
+double rise_weighted_width(const ClassRule& rule, double width, double rise) {
+  if (rule.rise_exponent == 0) return width;
+  return width * std::pow(std::max(rise, kShortestRise) / rule.rise_reference, rule.rise_exponent);
+}
+
+EventClass classify(const ClassRule& rule, double width, double rise, std::span<const double> peaks) {
   for (std::size_t j = 0; j < std::min(peaks.size(), rule.collision_level.size()); ++j)
     if (std::abs(peaks[j]) > rule.collision_level[j]) return EventClass::collision;
-  if (std::isnan(width)) return EventClass::unknown;
-  return width < rule.width ? EventClass::collision : EventClass::contact;
+  const double weighted = rise_weighted_width(rule, width, rise);
+  if (std::isnan(weighted)) return EventClass::unknown;
+  return weighted < rule.width ? EventClass::collision : EventClass::contact;
 }
+
+namespace {
+
+// The rise's weight against the width's in a logistic regression of the class (collision 1)
+// on (log width, log rise), standardised, with a unit normal prior on the two slopes (Newton's
+// method; the prior keeps the fit finite when the classes are separable). 0 when the rise
+// points the wrong way. Also the geometric mean rise (s), the reference.
+std::pair<double, double> learn_rise_weight(std::span<const ClassExample> examples) {
+  std::vector<Eigen::Vector3d> x;
+  std::vector<double> y;
+  for (const auto& e : examples) {
+    if (!std::isfinite(e.width)) continue;
+    if (!std::isfinite(e.rise)) return {0.0, 0.0};
+    x.emplace_back(1.0, std::log(std::max(e.width, 1e-4)), std::log(std::max(e.rise, kShortestRise)));
+    y.push_back(e.collision ? 1.0 : 0.0);
+  }
+  if (x.size() < 2) return {0.0, 0.0};
+  const auto n = static_cast<double>(x.size());
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero(), sd = Eigen::Vector3d::Zero();
+  for (const auto& v : x) mean += v / n;
+  for (const auto& v : x) sd += (v - mean).cwiseAbs2() / n;
+  sd = sd.cwiseSqrt();
+  if (!(sd[1] > 0) || !(sd[2] > 0)) return {0.0, std::exp(mean[2])};
+  for (auto& v : x) v = Eigen::Vector3d(1.0, (v[1] - mean[1]) / sd[1], (v[2] - mean[2]) / sd[2]);
+  const Eigen::Vector3d prior(0.0, 1.0, 1.0);  // precision of each coefficient's prior
+  Eigen::Vector3d beta = Eigen::Vector3d::Zero();
+  for (int iteration = 0; iteration < 50; ++iteration) {
+    Eigen::Vector3d gradient = -prior.cwiseProduct(beta);
+    Eigen::Matrix3d hessian = prior.asDiagonal();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const double p = 1 / (1 + std::exp(-beta.dot(x[i])));
+      gradient += (y[i] - p) * x[i];
+      hessian += p * (1 - p) * x[i] * x[i].transpose();
+    }
+    const Eigen::Vector3d step = hessian.ldlt().solve(gradient);
+    beta += step;
+    if (step.norm() < 1e-10) break;
+  }
+  // Both slopes negative (a wider pulse and a slower rise: less often a collision).
+  if (!(beta[1] < 0) || !(beta[2] < 0)) return {0.0, std::exp(mean[2])};
+  return {(beta[2] / sd[2]) / (beta[1] / sd[1]), std::exp(mean[2])};
+}
+
+}  // namespace
 
 ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints) {
   ClassRule rule;
+  std::tie(rule.rise_exponent, rule.rise_reference) = learn_rise_weight(examples);
+  if (rule.rise_exponent == 0) rule.rise_reference = 0;
   std::vector<std::pair<double, bool>> widths;
   for (const auto& e : examples) {
     (e.collision ? rule.collisions : rule.contacts)++;
-    if (std::isfinite(e.width)) widths.emplace_back(std::max(e.width, 1e-4), e.collision);
+    if (std::isfinite(e.width))
+      widths.emplace_back(rise_weighted_width(rule, std::max(e.width, 1e-4), e.rise), e.collision);
   }
   if (rule.contacts == 0 || rule.collisions == 0)
     throw Error("learning contact and collision needs examples of both (" + std::to_string(rule.contacts) +
@@ -97,7 +156,8 @@ ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints)
         level[j] = std::max(level[j], std::abs(e.peaks[j]));
   auto accuracy = [&](const ClassRule& r) {
     int right = 0;
-    for (const auto& e : examples) right += (classify(r, e.width, e.peaks) == EventClass::collision) == e.collision;
+    for (const auto& e : examples)
+      right += (classify(r, e.width, e.rise, e.peaks) == EventClass::collision) == e.collision;
     return static_cast<double>(right) / static_cast<double>(examples.size());
   };
   rule.accuracy = accuracy(rule);
@@ -122,6 +182,8 @@ std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::
   try {
     ClassRule rule;
     rule.width = found->at("width").get<double>();
+    rule.rise_exponent = found->value("rise_exponent", 0.0);
+    rule.rise_reference = found->value("rise_reference", 0.0);
     if (found->contains("collision")) rule.collision_level = found->at("collision").get<std::vector<double>>();
     rule.contacts = found->value("contacts", 0);
     rule.collisions = found->value("collisions", 0);
@@ -144,6 +206,10 @@ nlohmann::json rule_to_json(const ClassRule& rule) {
                       {"contacts", rule.contacts},
                       {"collisions", rule.collisions},
                       {"accuracy", rule.accuracy}};
+  if (rule.rise_exponent > 0) {
+    j["rise_exponent"] = rule.rise_exponent;
+    j["rise_reference"] = rule.rise_reference;
+  }
   if (!rule.collision_level.empty()) j["collision"] = rule.collision_level;
   return j;
 }

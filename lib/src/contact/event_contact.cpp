@@ -84,7 +84,7 @@ void EventContact::fill(detect::Event& event, bool whole) {
     const PulseShape shape = pulse_shape(samples, window_.t_onset_estimate(), weight_);
     c.rise = shape.rise;
     c.width = shape.width;
-    if (rule_) c.event_class = std::string(class_name(classify(*rule_, c.width, event.peaks)));
+    if (rule_) c.event_class = std::string(class_name(classify(*rule_, c.width, c.rise, event.peaks)));
   } else if (decided_ != EventClass::unknown) {
     c.event_class = std::string(class_name(decided_));
   }
@@ -113,8 +113,11 @@ std::optional<EventClass> EventContact::decide_class() {
     if (decided_ == EventClass::unknown) {
       // The pulse is over (its width is known), or already wider than the rule's width.
       const PulseShape shape = pulse_shape(window_.samples(), window_.t_onset_estimate(), weight_);
-      if (shape.over) decided_ = shape.width < rule_->width ? EventClass::collision : EventClass::contact;
-      else if (t_last_ - shape.t_first_half >= rule_->width) decided_ = EventClass::contact;
+      // Before the pulse is over its width so far and its rise so far (the 90% mark only moves
+      // later as the peak grows) are both lower bounds.
+      if (shape.over) decided_ = classify(*rule_, shape.width, shape.rise, {});
+      else if (rise_weighted_width(*rule_, t_last_ - shape.t_first_half, shape.rise) >= rule_->width)
+        decided_ = EventClass::contact;
     }
   }
   if (decided_ == EventClass::unknown) return std::nullopt;

@@ -6,6 +6,7 @@
 #include "momentum/eval/score.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
 
 namespace momentum::eval {
 
@@ -31,10 +32,12 @@ contact::ClassRule learn_classes(const LearnClassesOptions& options) {
                 " (run mo-detect with a profile that has a URDF, on a stream with q)");
   const std::size_t joints = examples.front().peaks.size();
   const contact::ClassRule learnt = contact::learn_rule(examples, joints);
+  std::string cut = "a pulse narrower than " + core::fixed(learnt.width, 3) + " s";
+  if (learnt.rise_exponent > 0)
+    cut += " x (" + core::fixed(learnt.rise_reference, 3) + " s / its rise)^" + core::fixed(learnt.rise_exponent, 2);
   std::fprintf(options.output == "-" ? stderr : stdout,
-               "classes: %d contacts, %d collisions; a pulse narrower than %.3f s is a collision; %.1f%% right on "
-               "these examples\n",
-               learnt.contacts, learnt.collisions, learnt.width, 100 * learnt.accuracy);
+               "classes: %d contacts, %d collisions; %s is a collision; %.1f%% right on these examples\n",
+               learnt.contacts, learnt.collisions, cut.c_str(), 100 * learnt.accuracy);
   if (options.dry_run) return learnt;
   nlohmann::json document = profile.document;
   const std::string& signal = options.signal;

@@ -56,6 +56,7 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
     d.peak_force = e.contact.peak_force;
     d.point = {e.contact.px, e.contact.py, e.contact.pz};
     d.width = e.contact.width;
+    d.rise = e.contact.rise;
     d.peaks = e.peaks;
   };
   std::map<std::uint64_t, std::size_t> event_index;  // event number -> index in detections
@@ -107,7 +108,7 @@ std::vector<contact::ClassExample> class_examples(const Truth& truth, const std:
   for (const auto& o : score(truth, detections, options).outcomes) {
     if (o.detection < 0) continue;
     const Detection& d = detections[static_cast<std::size_t>(o.detection)];
-    if (std::isfinite(d.width)) examples.push_back({d.width, d.peaks, o.contact.clamp});
+    if (std::isfinite(d.width)) examples.push_back({d.width, d.peaks, o.contact.clamp, d.rise});
   }
   return examples;
 }

@@ -3,21 +3,27 @@
 //
 // A collision is an impact: a short, broadband pulse of force (a stiff obstacle met at speed,
 // gone as the arm stops or bounces off). A contact is a push or a guiding hand: the force rises
-// and is held for a good part of a second. The feature is the pulse's width, the time the
-// contact's residual (weighted over the joints) stays above half its peak: the inverse of its
-// bandwidth, read in the time domain so that it is known as soon as the pulse is over. Its rise
-// time (from the estimated onset to 90% of the peak) is reported beside it. And libfranka-style
-// levels per joint: a joint over its collision level makes the event a collision whatever its
-// width (between the detection threshold and that level: a contact).
+// and is held for a good part of a second. The features are the pulse's width, the time the
+// contact's residual (weighted over the joints) stays above half its peak (the inverse of its
+// bandwidth, read in the time domain so that it is known as soon as the pulse is over), and its
+// rise time, from the estimated onset to 90% of the peak (an arm pinned against an obstacle
+// holds the force as long as a push does, but it rose as fast as an impact). And
+// libfranka-style levels per joint: a joint over its collision level makes the event a
+// collision whatever its shape (between the detection threshold and that level: a contact).
 //
-// The rule's parameters come from calibration (mo-calibrate --classes): the width that best
-// separates the collisions from the contacts of a labelled campaign, and per joint the largest
-// residual that a contact of that campaign reached (when these levels improve on the width). Profile entry, beside the thresholds of the
-// signal it was calibrated on:
+// The rule: a collision when width * (rise / rise_reference)^rise_exponent is under `width`
+// (rise_exponent 0: the width alone). Its parameters come from calibration (mo-calibrate
+// --classes): how much the rise counts, from a logistic regression of the class on the
+// logarithms of width and rise over a labelled campaign; the cut on that combination that
+// separates its collisions from its contacts best; and per joint the largest residual that a
+// contact of that campaign reached (when these levels improve on the cut). Profile entry,
+// beside the thresholds of the signal it was calibrated on:
 //
-//   "thresholds": {"mu": {..., "classify": {"width": 0.15, "collision": [40, 35, 12],
+//   "thresholds": {"mu": {..., "classify": {"width": 0.15, "rise_exponent": 0.6,
+//                                           "rise_reference": 0.09, "collision": [40, 35, 12],
 //                                           "contacts": 12, "collisions": 18, "accuracy": 0.93}}}
 
+#include <cmath>
 #include <optional>
 #include <span>
 #include <string>
@@ -46,7 +52,9 @@ struct PulseShape {
 PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight);
 
 struct ClassRule {
-  double width = 0;                     // s, > 0: a shorter pulse is a collision
+  double width = 0;                     // s, > 0: a shorter pulse (at the reference rise) is a collision
+  double rise_exponent = 0;             // >= 0: how much a slow rise widens the pulse; 0: width alone
+  double rise_reference = 0;            // s, > 0 when rise_exponent > 0: the rise at which width counts as is
   std::vector<double> collision_level;  // Nm per joint, > 0; empty: no level
   // What it was learnt from, for reports.
   int contacts = 0, collisions = 0;
@@ -54,21 +62,34 @@ struct ClassRule {
   bool IsValid(std::string* why) const;
 };
 
-// The class of a finished event: its pulse width (s) and per-joint peaks (Nm).
-EventClass classify(const ClassRule& rule, double width, std::span<const double> peaks);
+// Rises under this count as this (s): a pulse at 90% of its peak on its first sample.
+inline constexpr double kShortestRise = 1e-3;
 
-// One labelled example: a detected event's pulse width and peaks, and whether the truth calls
-// it a collision.
+// The pulse width as the rule weighs it (s): width * (max(rise, kShortestRise) /
+// rise_reference)^rise_exponent. NaN when width is, or when the rule weighs a rise that is NaN.
+double rise_weighted_width(const ClassRule& rule, double width, double rise);
+
+// The class of a finished event: its pulse width and rise (s) and per-joint peaks (Nm).
+EventClass classify(const ClassRule& rule, double width, double rise, std::span<const double> peaks);
+
+// One labelled example: a detected event's pulse width, peaks and rise, and whether the truth
+// calls it a collision.
 struct ClassExample {
   double width = 0;
   std::vector<double> peaks;
   bool collision = false;
+  double rise = NAN;  // s; NaN: unknown (then no example's rise is weighed)
 };
 
-// Learns the rule from examples: the width that classifies them best (the geometric middle
-// between the two neighbouring widths where the accuracy is highest; ties: the widest gap),
-// and per joint the largest peak of a contact as its collision level, kept only when the
-// levels classify the examples better than the width alone. Throws momentum::Error without at least one example of each class.
+// Learns the rule from examples. How much the rise counts: the ratio of the rise's to the
+// width's coefficient in a logistic regression of the class on log width and log rise
+// (standardised, with a unit normal prior on the two slopes, so that classes that one feature
+// separates keep a finite fit); 0 when the rise points the wrong way (a slower rise more
+// often a collision) or an example has no rise. The cut: the rise-weighted width that
+// classifies the examples best (the geometric middle between the two neighbouring values
+// where the accuracy is highest; ties: the widest gap). Per joint the largest peak of a
+// contact as its collision level, kept only when the levels classify the examples better
+// than the cut alone. Throws momentum::Error without at least one example of each class.
 ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints);
 
 // Reads thresholds/<signal>/classify of a profile document; nullopt when absent. Throws

@@ -39,6 +39,7 @@ struct Detection {
   double peak_force = NAN;       // N
   Eigen::Vector3d point{NAN, NAN, NAN};  // in the final link's frame, m
   double width = NAN;            // s, the residual's pulse width
+  double rise = NAN;             // s, its rise time
   std::vector<double> peaks;     // per joint, Nm
 };
 
@@ -129,7 +130,7 @@ struct Score {
 Score score(const Truth& truth, const std::vector<Detection>& detections, const ScoreOptions& options);
 
 // The detected contacts as labelled examples for learning the contact/collision rule
-// (contact/classify.hpp): each detecting event's pulse width and peaks, and whether the
+// (contact/classify.hpp): each detecting event's pulse width, rise and peaks, and whether the
 // contact was a collision (an obstacle met: the truth's clamp). Events without a width (no
 // identification) are left out.
 std::vector<contact::ClassExample> class_examples(const Truth& truth, const std::vector<Detection>& detections,
