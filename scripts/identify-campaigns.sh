@@ -1,32 +1,38 @@
 #!/usr/bin/env bash
 # Identification and classification on simulated campaigns (mo-detect(1), CONTACTS AND COLLISIONS).
-#   scripts/identify-campaigns.sh [--robots LIST] [--rates LIST] [--contacts N] [--work DIR] [BUILD_DIR]
-# defaults: paper-arm,ur5,panda; 125,1000; 30 contacts per campaign; a fresh work folder.
+#   scripts/identify-campaigns.sh [--robots LIST] [--rates LIST] [--contacts N] [--seeds TRAIN,TEST]
+#                                 [--work DIR] [BUILD_DIR]
+# defaults: paper-arm,ur5,panda; 125,1000; 30 contacts per campaign; seeds 2,3; a fresh work
+# folder.
 #
 # Per robot and rate, as a user would run it:
 #   1. friction identified (mo-lugre-fit) on 60 s of multisine excitation, thresholds calibrated
 #      on 600 s of collision-free motion of the campaigns' kind (the paper's sines); every robot
 #      through a first-order observer at 50 rad/s (the paper arm's second order leaves a tail of
 #      seconds after each held push, as the demo notes);
-#   2. a training campaign (seed 2, mo-sim --mixed): half impacts (stiff obstacles met at speed,
+#   2. a training campaign (seed TRAIN, mo-sim --mixed): half impacts (stiff obstacles met at speed,
 #      300 N/mm, held 10-50 ms: collisions), half slow pushes (rise 0.15-0.4 s, held 0.2-0.6 s:
 #      contacts); its events teach mo-calibrate --classes the rule;
-#   3. a test campaign of the same kinds (seed 3), scored by mo-eval: isolation, class, force
+#   3. a test campaign of the same kinds (seed TEST), scored by mo-eval: isolation, class, force
 #      and point errors, per link.
 # Prints one table row per robot and rate, and mo-eval's per-link table.
 set -euo pipefail
-robots=paper-arm,ur5,panda rates=125,1000 contacts=30 work="" keep=0
+robots=paper-arm,ur5,panda rates=125,1000 contacts=30 seeds=2,3 work="" keep=0
 while (($#)); do
   case $1 in
     --robots) robots=${2:?}; shift 2 ;;
     --rates) rates=${2:?}; shift 2 ;;
     --contacts) contacts=${2:?}; shift 2 ;;
+    --seeds) seeds=${2:?}; shift 2 ;;
     --work) work=${2:?}; keep=1; shift 2 ;;
-    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "identify-campaigns: unknown option $1" >&2; exit 2 ;;
     *) break ;;
   esac
 done
+IFS=, read -r train_seed test_seed <<< "$seeds"
+[[ $train_seed =~ ^[0-9]+$ && $test_seed =~ ^[0-9]+$ ]] ||
+  { echo "identify-campaigns: --seeds wants two seeds, TRAIN,TEST (got '$seeds')" >&2; exit 2; }
 build=$(cd "${1:-build}" && pwd)
 here=$(cd "$(dirname "$0")/.." && pwd)
 for t in mo-sim mo-observe mo-lugre-fit mo-calibrate mo-detect mo-eval; do
@@ -65,13 +71,13 @@ for robot in "${robot_list[@]}"; do
     mo-observe -q --order 1 --k1 50 -p "$dir/fitted.json" "$dir/free.csv" > "$dir/free.obs.csv"
     mo-calibrate -q -p "$dir/fitted.json" -o "$dir/calibrated.json" "$dir/free.obs.csv" > /dev/null
     # 2. the class rule from a training campaign
-    "${sim[@]}" --seed 2 --collisions "$contacts" "${kinds[@]}" --truth "$dir/train.truth.csv" -o "$dir/train.csv"
+    "${sim[@]}" --seed "$train_seed" --collisions "$contacts" "${kinds[@]}" --truth "$dir/train.truth.csv" -o "$dir/train.csv"
     mo-observe -q --order 1 --k1 50 -p "$dir/calibrated.json" "$dir/train.csv" > "$dir/train.obs.csv"
     mo-detect -q -p "$dir/calibrated.json" "$dir/train.obs.csv" > "$dir/train.events.csv" || [[ $? == 1 ]]
     mo-calibrate -q -p "$dir/calibrated.json" --classes "$dir/train.events.csv" --truth "$dir/train.truth.csv" \
       > "$dir/classes.txt"
     # 3. the test campaign
-    "${sim[@]}" --seed 3 --collisions "$contacts" "${kinds[@]}" --truth "$dir/test.truth.csv" -o "$dir/test.csv"
+    "${sim[@]}" --seed "$test_seed" --collisions "$contacts" "${kinds[@]}" --truth "$dir/test.truth.csv" -o "$dir/test.csv"
     mo-observe -q --order 1 --k1 50 -p "$dir/calibrated.json" "$dir/test.csv" > "$dir/test.obs.csv"
     mo-detect -q -p "$dir/calibrated.json" "$dir/test.obs.csv" > "$dir/test.events.csv" || [[ $? == 1 ]]
     mo-eval --truth "$dir/test.truth.csv" --json "$dir/test.events.csv" > "$dir/score.json"

@@ -63,7 +63,10 @@ TEST(Locate, RecoversForceAndPointOnAWristLink) {
   const mm::Model model = load("ur5");
   const auto segments = mc::link_segments(model);
   const int body = 4;  // link 5: joints 1..5 see it, so force and point are determined
-  const Eigen::Vector3d point = segments[body].from + 0.6 * (segments[body].to - segments[body].from);
+  // On the link's surface, 0.05 m off its segment: the segment lies on joint 5's axis, where a
+  // force would not turn joint 5 and link 4 would explain it as well.
+  const Eigen::Vector3d along = segments[body].to - segments[body].from;
+  const Eigen::Vector3d point = segments[body].from + 0.6 * along + 0.05 * along.normalized().unitOrthogonal();
   const Eigen::Vector3d force(30.0, -50.0, 20.0);
   const double sigma = 0.05;
   const auto samples = push(model, body, point, force, sigma, 7);
@@ -116,6 +119,59 @@ TEST(Locate, WholeContactKeepsTheProximalLinkThatTheNoiseAccepts) {
   const auto wrist = push(model, 5, segments[5].from + 0.5 * (segments[5].to - segments[5].from) + 0.05 * axis.unitOrthogonal(),
                           Eigen::Vector3d(20, -30, 40), sigma, 6);
   EXPECT_EQ(locator.locate(wrist, 2, 6, mc::LinkChoice::proximal_accepted).link, 6);
+}
+
+// A push on the forearm while the wrist's residuals carry the model's error in a pattern that
+// turns from row to row (the arm's reaction), 3 sigma: the forearm's fit is refuted by the
+// noise. A wrist link with a force of its own on every row would explain those errors away;
+// with one direction for the whole contact it cannot, and the forearm fits best.
+TEST(Locate, ModelErrorsThatTurnFromRowToRowAreNotAForce) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const int body = 2;  // link 3
+  const double sigma = 0.05;
+  auto samples = push(model, body, 0.5 * (segments[body].from + segments[body].to), Eigen::Vector3d(0, 40, -60),
+                      sigma, 8);
+  for (std::size_t k = 0; k < samples.size(); ++k)
+    for (Eigen::Index j = 3; j < 6; ++j)
+      samples[k].r[j] += 3 * sigma * std::sin(0.9 * static_cast<double>(k) + 2.1 * static_cast<double>(j));
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  const mc::Location loc = locator.locate(samples, 2, 6, mc::LinkChoice::proximal_accepted);
+  EXPECT_EQ(loc.link, 3);
+  ASSERT_EQ(loc.candidates.size(), 5u);  // links 2..6
+  for (const mc::CandidateFit& c : loc.candidates)
+    if (c.link != 3) {
+      EXPECT_GT(c.cost, loc.candidates[1].cost) << "link " << c.link;
+    }
+}
+
+// A push near joint 5's axis on link 5 loads joint 5 a little: link 4 explains the rest and
+// leaves only that, within what the calibrated noise accepts, so the proximal rule alone would
+// name link 4. Link 5 explains it all with one more unknown (the point's lever on joint 5):
+// the likelihood-ratio test takes it.
+TEST(Locate, ADistalBodyThatFitsFarBetterBeatsAnAcceptedProximalOne) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const int body = 4;
+  const Eigen::Vector3d along = segments[body].to - segments[body].from;
+  const Eigen::Vector3d point = segments[body].from + 0.5 * along + 0.05 * along.normalized().unitOrthogonal();
+  const double sigma = 0.05;  // the calibrated noise; the samples' own is a tenth of it
+  const auto samples = push(model, body, point, Eigen::Vector3d(2, 2, 2), 0.1 * sigma, 3);
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  const mc::Location loc = locator.locate(samples, 2, 5, mc::LinkChoice::proximal_accepted);
+  ASSERT_EQ(loc.candidates.size(), 5u);  // links 2..6
+  const mc::CandidateFit& link4 = loc.candidates[2];
+  const mc::CandidateFit& link5 = loc.candidates[3];
+  ASSERT_EQ(link4.link, 4);
+  // The rows (a magnitude each, and the direction and point) leave link 4 over 50 degrees of
+  // freedom, whose chi-square 0.999 quantile is over 86: its cost is accepted.
+  const int rows = link5.unknowns - 3;
+  EXPECT_GE(6 * rows - link4.unknowns, 50);
+  EXPECT_LT(link4.cost, 86.0);
+  // Link 5 fits better by more than the 0.999 quantile of one degree of freedom (10.83).
+  EXPECT_GT(link4.cost - link5.cost, 10.83);
+  EXPECT_EQ(loc.link, 5);
+  EXPECT_LT((loc.point - point).norm(), 3 * loc.point_sd + 1e-9);
 }
 
 TEST(Locate, ABodyThatFitsEveryJointExactlyIsOnlyTakenFromTheSignature) {

@@ -18,6 +18,18 @@ constexpr double kRankTolerance = 1e-6;
 
 int seen_unknowns(int body) { return std::min(3, body + 1); }
 
+// The pseudo-inverse of a symmetric positive semi-definite 3 x 3 matrix: directions whose
+// eigenvalue is under kRankTolerance of the largest are left out (the minimum-norm solution).
+Eigen::Matrix3d pseudo_inverse(const Eigen::Matrix3d& normal) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+  eigen.computeDirect(normal);
+  const Eigen::Vector3d& values = eigen.eigenvalues();
+  Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 3; ++i)
+    if (values[i] > kRankTolerance * values[2]) inverse[i] = 1.0 / values[i];
+  return eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
+}
+
 // z with P(N(0, 1) > z) = p, for 0 < p < 0.5 (bisection on erfc).
 double upper_normal_quantile(double p) {
   double lo = 0, hi = 40;
@@ -31,6 +43,7 @@ double upper_normal_quantile(double p) {
 // The (1 - alpha) quantile of a chi-square variable with `dof` degrees of freedom
 // (Wilson-Hilferty: within 1% for dof >= 2 at these levels).
 double chi_square_quantile(double dof, double alpha) {
+  if (dof == 1) return std::pow(upper_normal_quantile(alpha / 2), 2);  // the square of a two-sided normal
   const double h = 2 / (9 * dof);
   return dof * std::pow(std::max(0.0, 1 - h + upper_normal_quantile(alpha) * std::sqrt(h)), 3);
 }
@@ -210,17 +223,10 @@ Eigen::Vector3d Locator::solve_force(const Kinematics& k, const ResidualSample& 
   const Eigen::VectorXd y = weight.cwiseProduct(s.r);
   // W r = -W J^T F: least squares through the 3 x 3 normal equations, minimum norm where the
   // joints do not see a direction (their eigenvalues are under the tolerance).
-  const Eigen::Matrix3d normal = JT_.transpose() * JT_;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
-  eigen.computeDirect(normal);
-  const Eigen::Vector3d& values = eigen.eigenvalues();
-  Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
-  for (int i = 0; i < 3; ++i)
-    if (values[i] > kRankTolerance * values[2]) inverse[i] = 1.0 / values[i];
-  const Eigen::Matrix3d pseudo_inverse = eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose();
-  const Eigen::Vector3d force = -pseudo_inverse * (JT_.transpose() * y);
+  const Eigen::Matrix3d inverse = pseudo_inverse(JT_.transpose() * JT_);
+  const Eigen::Vector3d force = -inverse * (JT_.transpose() * y);
   if (cost) *cost = (y + JT_ * force).squaredNorm();
-  if (covariance) *covariance = pseudo_inverse;
+  if (covariance) *covariance = inverse;
   return force;
 }
 
@@ -257,13 +263,50 @@ Locator::Candidates Locator::candidates(int body) const {
 
 double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
                            const Eigen::Vector3d& point) {
-  double total = 0;
-  for (std::size_t i = 0; i < fit.size(); ++i) {
-    double cost = 0;
-    solve_force(kin[i], *fit[i], body, point, nullptr, &cost);
-    total += cost;
+  // Alternating least squares from the principal direction of the per-sample forces: the
+  // magnitudes for the direction (one division each), then the direction for the magnitudes
+  // (a 3 x 3 system). A handful of rounds settle it: the start is already the direction of
+  // the strongest samples. Each sample enters through its normal equations only (A = W J^T:
+  // A^T A, A^T W r and |W r|^2), so a round costs a few 3 x 3 products per sample.
+  constexpr int kRounds = 4;
+  const std::size_t n = fit.size();
+  normals_.resize(n);
+  projections_.resize(n);
+  squares_.resize(n);
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::VectorXd& weight = weight_of(*fit[i]);
+    jacobian_transpose(kin[i], body, point, weight, JT_);
+    const Eigen::VectorXd y = weight.cwiseProduct(fit[i]->r);
+    normals_[i] = JT_.transpose() * JT_;
+    projections_[i] = JT_.transpose() * y;
+    squares_[i] = y.squaredNorm();
+    const Eigen::Vector3d force = -pseudo_inverse(normals_[i]) * projections_[i];
+    scatter += force * force.transpose();
   }
-  return total;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+  eigen.computeDirect(scatter);
+  Eigen::Vector3d direction = eigen.eigenvectors().col(2);
+  double cost = 0;
+  for (int round = 0;; ++round) {
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    cost = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      // |A u|^2 and (A u) . W r: the residual of a unit force along the direction.
+      const double lever2 = direction.dot(normals_[i] * direction);
+      const double along = direction.dot(projections_[i]);
+      const double magnitude = lever2 > 0 ? -along / lever2 : 0.0;
+      cost += squares_[i] + magnitude * along;  // |W r + m A u|^2 at the best m
+      normal += magnitude * magnitude * normals_[i];
+      rhs -= magnitude * projections_[i];
+    }
+    if (round + 1 == kRounds) break;
+    const Eigen::Vector3d next = pseudo_inverse(normal) * rhs;
+    if (!(next.norm() > 0)) break;
+    direction = next.normalized();
+  }
+  return std::max(0.0, cost);
 }
 
 Location Locator::locate(std::span<const ResidualSample> samples, int first_link, int signature_link,
@@ -313,8 +356,9 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   std::vector<BodyFit> fits;
   for (int body = first_link - 1; body < nq; ++body) {
     // Beyond first_link, only the signature's link and bodies whose fit the residuals can
-    // refute: one that sees every joint with as many force components as joints fits any
-    // residual exactly, so only the calibrated thresholds can judge it.
+    // refute: one that sees every joint with as many force components as joints fits each
+    // row's residual with a direction of that row's own, so mostly only the calibrated
+    // thresholds can judge it.
     if (body > first_link - 1 && body + 1 != signature_link && seen_unknowns(body) >= nq) continue;
     BodyFit f;
     f.body = body;
@@ -325,15 +369,19 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
       if (f.costs[p] < f.costs[f.best]) f.best = p;
     }
     f.cost = f.costs[f.best];
-    f.unknowns = static_cast<int>(fit.size()) * seen_unknowns(body) + (body + 1 >= 4 ? 1 : 0);
+    // A magnitude per sample, the direction within what the joints see, the point along the link.
+    f.unknowns = static_cast<int>(fit.size()) + seen_unknowns(body) - 1 + (body + 1 >= 4 ? 1 : 0);
     fits.push_back(std::move(f));
   }
 
-  // The noise scale of the costs: the most distal body's fit per degree of freedom when it has
-  // any left, never below the weights' own scale.
-  const BodyFit& fullest = fits.back();
-  const double dof_full = static_cast<double>(fit.size()) * nq - fullest.unknowns;
-  const double scale = dof_full > 0 ? std::max(1.0, fullest.cost / dof_full) : 1.0;
+  // The noise scale of the costs: the best fit per degree of freedom among the bodies that have
+  // any left, never below the weights' own scale. (Not the most distal body's: with a force of
+  // one direction it no longer explains a more proximal contact.)
+  double scale = std::numeric_limits<double>::infinity();
+  for (const BodyFit& g : fits)
+    if (const double dof = static_cast<double>(fit.size()) * nq - g.unknowns; dof > 0)
+      scale = std::min(scale, g.cost / dof);
+  scale = std::isfinite(scale) ? std::max(1.0, scale) : 1.0;
   std::size_t chosen = 0;
   double best_score = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < fits.size(); ++i) {
@@ -343,11 +391,20 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   if (choice == LinkChoice::proximal_accepted)
     for (std::size_t i = 0; i < fits.size(); ++i) {
       const double dof = static_cast<double>(fit.size()) * nq - fits[i].unknowns;
-      if (dof > 0 && fits[i].cost <= chi_square_quantile(dof, options_.proximal_alpha)) {
+      // Refuted too by a more distal body that explains the residuals better than its few extra
+      // unknowns (at least one: the other body's geometry) could by chance: a likelihood-ratio
+      // test at the same level.
+      bool beaten = false;
+      for (std::size_t j = i + 1; j < fits.size() && !beaten; ++j) {
+        const int extra = std::max(1, fits[j].unknowns - fits[i].unknowns);
+        beaten = fits[i].cost - fits[j].cost > chi_square_quantile(extra, options_.proximal_alpha);
+      }
+      if (dof > 0 && !beaten && fits[i].cost <= chi_square_quantile(dof, options_.proximal_alpha)) {
         chosen = i;
         break;
       }
     }
+  for (const BodyFit& g : fits) out.candidates.push_back({g.body + 1, g.cost, g.unknowns});
   const BodyFit& f = fits[chosen];
   const Segment& seg = segments_[static_cast<std::size_t>(f.body)];
   out.link = f.body + 1;

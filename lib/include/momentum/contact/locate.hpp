@@ -10,8 +10,16 @@
 // body), the skeleton a URDF without collision shapes still gives, and a cylinder of a given
 // radius around it (a force on a wrist link turns that link's own joint only through its
 // lever off the axis). Several samples of the same
-// contact (the arm moves, the force changes, the point stays) sharpen the point: each sample
-// has a force of its own and the point is shared.
+// contact (the arm moves, the force grows and fades, the point stays) sharpen the point. The
+// samples share the point and the force's direction (the contact's normal, tilted within its
+// friction cone, turns little in the tenths of a second up to the peak); each has a magnitude
+// of its own. That is the physics of a contact and not of the model's errors, which the
+// controller's reaction to the contact spreads over the other joints with a pattern that
+// changes from sample to sample: a body that fits a sample's residuals only by absorbing those
+// errors with a force of a new direction each sample no longer fits. (On 13 campaigns of 30
+// contacts, 3 simulated arms at 2 rates and 2 seeds and the MuJoCo UR5, isolation went from
+// 310 to 324 of 386 with it and the likelihood-ratio test of LinkChoice::proximal_accepted,
+// and at detection from 191 to 216.)
 //
 // What the joints cannot see is said, not guessed: a force on body b has 3 unknowns and the
 // point 1 more, but only joints 1..b see it. Below 3 joints the force is known only along the
@@ -87,11 +95,22 @@ enum class LinkChoice {
   // few samples (at detection), where no candidate can be refuted yet.
   best_fit,
   // The most proximal candidate whose cost the calibrated noise accepts at
-  // LocatorOptions::proximal_alpha, else best_fit's. For a whole contact: a contact puts no
-  // torque on the joints beyond its link, and a more distal body that fits better only by
-  // absorbing the model's small errors on those joints (which a whole contact's many samples
-  // let it do) is not evidence of a more distal contact.
+  // LocatorOptions::proximal_alpha and that no more distal candidate beats by more than its
+  // extra unknowns (at least 1) explain by chance at the same level (a likelihood-ratio test),
+  // else best_fit's. For a whole contact: a contact puts no torque on the joints beyond its
+  // link, and a more distal body that fits only a little better, by absorbing the model's small
+  // errors on those joints, is not evidence of a more distal contact; one that fits much better
+  // with a direction and a point of its own is.
   proximal_accepted,
+};
+
+// One candidate body's best fit: its weighted residual sum of squares at its best point (in
+// units of the calibrated noise) and its unknowns (a magnitude per sample, the direction, the
+// point).
+struct CandidateFit {
+  int link = 0;  // 1..nq
+  double cost = 0;
+  int unknowns = 0;
 };
 
 // What one fit found. `link` 0 when nothing could be fitted (no sample, or no candidate body).
@@ -108,6 +127,7 @@ struct Location {
   double t_peak = 0;                                 // s, time of that sample
   double impulse = 0;                                // integral of |force| over the samples, N s
   double chi2 = 0;                                   // weighted residual sum of squares per degree of freedom
+  std::vector<CandidateFit> candidates;              // every body fitted, proximal first
 };
 
 // Finds contact points and forces on one model. Read-only after construction except for its
@@ -144,7 +164,8 @@ class Locator {
   void jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point, const Eigen::VectorXd& weight,
                           Eigen::MatrixXd& JT) const;
   const Eigen::VectorXd& weight_of(const ResidualSample& s) const { return s.weight.size() ? s.weight : weight_; }
-  // Weighted cost of the best force per sample at one point, summed over `fit`.
+  // Weighted residual sum of squares at one point of the best forces of one direction (world)
+  // and a magnitude per sample of `fit`.
   double point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
                     const Eigen::Vector3d& point);
   Eigen::Vector3d solve_force(const Kinematics& k, const ResidualSample& s, int body, const Eigen::Vector3d& point,
@@ -157,6 +178,10 @@ class Locator {
   std::vector<Segment> segments_;
   std::vector<Candidates> candidates_;  // per body, made once
   Eigen::MatrixXd JT_;
+  // point_cost's scratch, per sample, with A = W J^T: A^T A, A^T W r and |W r|^2.
+  std::vector<Eigen::Matrix3d> normals_;
+  std::vector<Eigen::Vector3d> projections_;
+  std::vector<double> squares_;
 };
 
 }  // namespace momentum::contact
