@@ -99,18 +99,27 @@ TEST(Locate, ProximalLinkIsNotExplainedByADistalOne) {
   EXPECT_NEAR(loc.point_sd, 0.5 * (segments[body].to - segments[body].from).norm() + 0.05, 1e-12);  // + radius
 }
 
+// A push in the middle of the UR5's forearm (link 3), with residual noise of `sigma`, and the
+// model's error `wrist_error(row, joint)` (Nm) added on the wrist's joints 4..6 (0-based 3..5),
+// which the contact itself cannot load.
+template <class WristError>
+std::vector<mc::ResidualSample> forearm_push(const mm::Model& model, double sigma, unsigned seed, WristError wrist_error) {
+  const auto segments = mc::link_segments(model);
+  auto samples = push(model, 2, 0.5 * (segments[2].from + segments[2].to), Eigen::Vector3d(0, 40, -60), sigma, seed);
+  for (std::size_t k = 0; k < samples.size(); ++k)
+    for (Eigen::Index j = 3; j < 6; ++j) samples[k].r[j] += wrist_error(static_cast<double>(k), j);
+  return samples;
+}
+
 TEST(Locate, WholeContactKeepsTheProximalLinkThatTheNoiseAccepts) {
   const mm::Model model = load("ur5");
   const auto segments = mc::link_segments(model);
-  const int body = 2;  // link 3
   const double sigma = 0.05;
-  auto samples = push(model, body, 0.5 * (segments[body].from + segments[body].to), Eigen::Vector3d(0, 40, -60),
-                      sigma, 5);
   // The model's error on the wrist while the forearm is pushed: 1.6 sigma, following the push
-  // (the wrist's share of the arm's reaction), on joints that the contact itself cannot load.
-  for (std::size_t k = 0; k < samples.size(); ++k)
-    for (Eigen::Index j = 3; j < 6; ++j)
-      samples[k].r[j] += (j % 2 ? -1.6 : 1.6) * sigma * std::sin(M_PI * static_cast<double>(k) / 40.0);
+  // (the wrist's share of the arm's reaction).
+  const auto samples = forearm_push(model, sigma, 5, [sigma](double k, Eigen::Index j) {
+    return (j % 2 ? -1.6 : 1.6) * sigma * std::sin(M_PI * k / 40.0);
+  });
   mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
   EXPECT_EQ(locator.locate(samples, 2, 6, mc::LinkChoice::proximal_accepted).link, 3);
   // A push on the surface of the wrist's last link with the same noise is still found there.
@@ -127,14 +136,10 @@ TEST(Locate, WholeContactKeepsTheProximalLinkThatTheNoiseAccepts) {
 // with one direction for the whole contact it cannot, and the forearm fits best.
 TEST(Locate, ModelErrorsThatTurnFromRowToRowAreNotAForce) {
   const mm::Model model = load("ur5");
-  const auto segments = mc::link_segments(model);
-  const int body = 2;  // link 3
   const double sigma = 0.05;
-  auto samples = push(model, body, 0.5 * (segments[body].from + segments[body].to), Eigen::Vector3d(0, 40, -60),
-                      sigma, 8);
-  for (std::size_t k = 0; k < samples.size(); ++k)
-    for (Eigen::Index j = 3; j < 6; ++j)
-      samples[k].r[j] += 3 * sigma * std::sin(0.9 * static_cast<double>(k) + 2.1 * static_cast<double>(j));
+  const auto samples = forearm_push(model, sigma, 8, [sigma](double k, Eigen::Index j) {
+    return 3 * sigma * std::sin(0.9 * k + 2.1 * static_cast<double>(j));
+  });
   mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
   const mc::Location loc = locator.locate(samples, 2, 6, mc::LinkChoice::proximal_accepted);
   EXPECT_EQ(loc.link, 3);
