@@ -74,7 +74,7 @@ struct LocatorOptions {
   // Candidate points per segment, evenly spaced from its joint to its end, >= 2.
   int points_per_link = 21;
   // Radius of the links' cylinders, m (>= 0; 0: the segments only). Each axial position adds
-  // 8 points around it. A cobot's links are about 0.05 m (mo-sim's default too).
+  // 16 points around it (8 for LinkChoice::best_fit). A cobot's links are about 0.05 m (mo-sim's default too).
   double link_radius = 0.05;
   // Most samples used in one fit (the strongest, evenly chosen among those of at least half the
   // peak), >= 1.
@@ -155,12 +155,13 @@ class Locator {
     std::vector<Eigen::Vector3d> position, axis;
   };
   // Candidate points of body `body`, its frame, and their spacing (m): on its collision shapes
-  // where the URDF gives some and every one could be read, else on the segment's cylinder.
+  // where the URDF gives some and every one could be read, else on the segment's cylinder;
+  // `around`: the points around each axial position (on shapes: the same density).
   struct Candidates {
     std::vector<Eigen::Vector3d> points;
     double spacing = 0;
   };
-  Candidates candidates(int body) const;
+  Candidates candidates(int body, int around) const;
   void jacobian_transpose(const Kinematics& k, int body, const Eigen::Vector3d& point, const Eigen::VectorXd& weight,
                           Eigen::MatrixXd& JT) const;
   const Eigen::VectorXd& weight_of(const ResidualSample& s) const { return s.weight.size() ? s.weight : weight_; }
@@ -176,7 +177,8 @@ class Locator {
   Eigen::VectorXd weight_;  // 1 / sigma
   LocatorOptions options_;
   std::vector<Segment> segments_;
-  std::vector<Candidates> candidates_;  // per body, made once
+  std::vector<Candidates> candidates_;         // per body, made once
+  std::vector<Candidates> coarse_candidates_;  // the same, half as dense around, for LinkChoice::best_fit
   Eigen::MatrixXd JT_;
   // point_cost's scratch, per sample, with A = W J^T: A^T A, A^T W r and |W r|^2.
   std::vector<Eigen::Matrix3d> normals_;
