@@ -69,6 +69,13 @@ TEST(StreamDetector, EventsSummaryAndAThresholdPerJoint) {
   EXPECT_NE(text.find(",0.01,2,1;2,end,1,0.03,release,5,3\n"), std::string::npos) << text;
   const std::string stats = format_stream_detector_stats(summary, "mo-detect");
   EXPECT_EQ(stats.rfind("mo-detect: 5 rows over 0.04 s, 0 bad rows skipped, 1 events\n", 0), 0u) << stats;
+  // The rows are timed only when asked (mo-detect --stats): two clock reads a row.
+  EXPECT_EQ(summary.latency_max, 0.0);
+  options.measure_latency = true;
+  const StreamDetectorSummary timed = StreamDetector(options).run(input);
+  EXPECT_GT(timed.latency_max, 0.0);
+  EXPECT_LE(timed.latency_median, timed.latency_p99);
+  EXPECT_LE(timed.latency_p99, timed.latency_max);
   std::remove(input.c_str());
   std::remove(output.c_str());
 }

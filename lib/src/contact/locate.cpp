@@ -211,6 +211,7 @@ Locator::Locator(const model::Model& model, Eigen::VectorXd sigma, LocatorOption
       throw Error("contact locator: the noise scale of joint " + std::to_string(j + 1) + " must be positive");
   weight_ = sigma.cwiseInverse();
   JT_.resize(model.nq, 3);
+  weighted_residual_.resize(model.nq);
   for (int body = 0; body < model.nq; ++body) {
     candidates_.push_back(candidates(body, kPointsAround));
     coarse_candidates_.push_back(candidates(body, kPointsAroundAtDetection));
@@ -290,10 +291,10 @@ double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::VectorXd& weight = weight_of(*fit[i]);
     jacobian_transpose(kin[i], body, point, weight, JT_);
-    const Eigen::VectorXd y = weight.cwiseProduct(fit[i]->r);
-    normals_[i] = JT_.transpose() * JT_;
-    projections_[i] = JT_.transpose() * y;
-    squares_[i] = y.squaredNorm();
+    weighted_residual_ = weight.cwiseProduct(fit[i]->r);  // sized once: no allocation per point
+    normals_[i].noalias() = JT_.transpose() * JT_;  // noalias: no temporary for the product
+    projections_[i].noalias() = JT_.transpose() * weighted_residual_;
+    squares_[i] = weighted_residual_.squaredNorm();
     const Eigen::Vector3d force = -pseudo_inverse(normals_[i]) * projections_[i];
     scatter += force * force.transpose();
   }

@@ -50,7 +50,6 @@ FrictionBand::FrictionBand(const friction::FrictionModel& model, double sigmas) 
   }
 }
 
-
 FrictionBand friction_band_from_profile(const nlohmann::json& document, double sigmas, const std::string& where) {
   if (!(sigmas > 0) || !document.is_object() || !document.contains("friction")) return {};
   friction::FrictionModel model;

@@ -184,6 +184,7 @@ class Locator {
   std::vector<Eigen::Matrix3d> normals_;
   std::vector<Eigen::Vector3d> projections_;
   std::vector<double> squares_;
+  Eigen::VectorXd weighted_residual_;  // W r of one sample
 };
 
 }  // namespace momentum::contact
