@@ -19,18 +19,33 @@
 #  5. observes the calibration part again with the candidate's friction and calibrates the
 #     thresholds (mo-calibrate --reject-contact: a log that looks like it holds a contact
 #     stops the night, the profile stays);
-#  6. checks the candidate on the check part. Its events there must be no more than its
-#     calibration stands for: mo-calibrate states the false alarms per hour its thresholds
-#     stand for, and the candidate is refused when that rate, over the hours of the check
-#     part, makes its count of events less likely than --check-level (default 0.01; on a few
-#     minutes of logs, any event is refused: the day held a collision, or its logs are not fit
-#     to calibrate on). It must raise no more events than the profile in place raises there,
-#     and no threshold may grow by more than --max-increase percent;
-#  7. installs the candidate by renaming it over the profile, after a dated backup
-#     (--backups, the newest --keep kept).
+#  6. judges the candidate and the profile in place on the check part, each by its own
+#     promise: mo-calibrate states the false alarms per hour a calibration's thresholds stand
+#     for (the candidate's report; for the profile in place, the statement its provenance
+#     records, else the rate its calibration asked of each joint times the joints). A profile
+#     breaks its promise when that rate, over the hours of the check part, makes its count of
+#     events less likely than --check-level (default 0.01; on a few minutes of logs, any event
+#     does). Then:
+#     - the candidate breaks its promise and the profile in place keeps its (or states none):
+#       refused;
+#     - both break theirs: the night ends ALARMING (exit status 3), naming the logs and the
+#       times of the candidate's events: the day held collisions, or the arm no longer matches
+#       any profile (a fault, a new tool): someone must look;
+#     - the profile in place breaks its promise and the candidate keeps its: the arm changed
+#       (wear, a new payload): the candidate is installed, whatever its thresholds' growth;
+#     - both keep theirs: the candidate may raise no more events than the profile in place,
+#       and no threshold may grow by more than --max-increase percent (a day that calibrates
+#       far looser while the profile in place stays quiet hides a contact or a sensor fault);
+#  7. installs the candidate through the tools' own lock and rename, after a dated backup
+#     (--backups, the newest --keep kept): the file the profile names (through symbolic links:
+#     a link stays a link) is locked with flock(2) as the tools lock it for an in-place update
+#     (waiting at most --lock-wait s for a tool that holds it), and, when it is still the
+#     profile the night started from, replaced by renaming a temporary file beside it. A
+#     profile changed during the night is not written over (outcome "kept").
 # Exit status: 0 when the new profile was installed (or would be, with --dry-run); 1 when the
 # night failed, had nothing to go on, or the candidate was refused (the old profile stays; see
-# the log); 2 on a usage error.
+# the log); 2 on a usage error; 3 when neither the candidate nor the profile in place keeps
+# its promise on the check logs (ALARMING in the log: the profile stays, and someone must look).
 #
 # With --json FILE (- for standard output), every run but a usage error also writes exactly one
 # JSON line, appended to FILE (a fleet's results are `jq` over these lines; see fleet/), e.g.
@@ -47,11 +62,17 @@
 #                    "refused": a candidate was made and judged unfit (a contact in the
 #                      calibration logs, more events on the check logs than its rate stands
 #                      for, thresholds grown too much);
-#                    "kept": nothing to go on (fewer than 2 logs) or another run holds the lock;
+#                    "kept": nothing to go on (fewer than 2 logs), another run holds the lock,
+#                      or the profile changed during the night;
+#                    "alarming": neither the candidate nor the profile in place keeps its
+#                      promise on the check logs (exit status 3; the reason names the logs and
+#                      the times of the candidate's events);
 #                    "failed": the night could not run (a tool missing, a broken log, a write
 #                      failed); the profile stays in every case but "installed"
-#   reason           why the profile was kept (the KEPT line of the log), else null
-#   exit_status      the script's exit status (0, 1, or 2 when the backups folder is unusable)
+#   reason           why the profile was kept (the KEPT or ALARMING line of the log); when
+#                    installed because the profile in place broke its promise, that (with both
+#                    counts); else null
+#   exit_status      the script's exit status (0, 1, 3, or 2 when the backups folder is unusable)
 #   profile_version  what identifies the profile: "sha256_before", "sha256_after" (of the file;
 #                    equal unless installed), its "name", and "version"/"id"/"serial" when the
 #                    profile carries them, "changes_before"/"changes_after" (provenance entries)
@@ -61,9 +82,14 @@
 #                    none; "envelope": {"a", "b"} per joint), {} when it has none
 #   thresholds_after   the candidate's, as calibrated this night (also when refused), null when
 #                    the night did not get that far
-#   check_events     events on the check logs, {"candidate": N, "in_place": N or null,
-#                    "expected": the candidate's stated false alarms over the check part's
-#                    "hours"}, when the check ran
+#   check_events     events on the check logs, when the check ran: {"candidate": N,
+#                    "in_place": N or null, "expected": the candidate's stated false alarms
+#                    over the check part's "hours", "in_place_expected": the profile in place's
+#                    (null when it states none), "candidate_chance", "in_place_chance": the
+#                    chance of as many events or more under that promise, "level":
+#                    --check-level, "candidate_keeps_promise", "in_place_keeps_promise": true,
+#                    false or null, "alarms": {"candidate": [...], "in_place": [...]}: per check
+#                    log with events {"log", "events", "t_detect": the first 20 times, s}}
 #   backup           the replaced profile's backup (installed only)
 #   started, finished, duration_s   UTC, ISO 8601; seconds
 set -uo pipefail
@@ -86,6 +112,7 @@ usage: nightly-recalibrate.sh -p PROFILE [--logs DIR | LOG...] [options]
   --torque-held           the logs' motor torque was held between samples (mo-sim's drives;
                           passed to mo-dynfit)
   --no-friction-fit       keep the friction in place, recalibrate the thresholds only
+  --lock-wait S           wait at most S s for the profile's lock at install (default 600)
   --seed N                seed of the friction fit (default 1)
   -j, --jobs N            logs observed at a time (default 1: a fleet runs one night per core)
   -n, --dry-run           do everything but install
@@ -97,7 +124,7 @@ EOF
 }
 
 profile="" logs_dir="" backups="" keep=30 log_file="" max_increase=50 seed=1
-dry_run=0 fit_friction=1 fit_dynamics=1 json_file="" robot="" jobs=1 check_level=0.01
+dry_run=0 fit_friction=1 fit_dynamics=1 json_file="" robot="" jobs=1 check_level=0.01 lock_wait=600
 dynfit_options=()
 calibrate_options=()
 logs=()
@@ -117,6 +144,7 @@ while (($#)); do
     --torque-held) dynfit_options+=(--torque-held); shift ;;
     --no-friction-fit) fit_friction=0; shift ;;
     --seed) seed=${2:?}; shift 2 ;;
+    --lock-wait) lock_wait=${2:?}; shift 2 ;;
     -j|--jobs) jobs=${2:?}; shift 2 ;;
     -n|--dry-run) dry_run=1; shift ;;
     --json) json_file=${2:?}; shift 2 ;;
@@ -128,6 +156,10 @@ while (($#)); do
 done
 if ! [[ $jobs =~ ^[1-9][0-9]*$ ]]; then
   echo "nightly-recalibrate: --jobs takes a number of logs (>= 1)" >&2
+  exit 2
+fi
+if ! [[ $lock_wait =~ ^[0-9]+$ ]]; then
+  echo "nightly-recalibrate: --lock-wait takes whole seconds (>= 0)" >&2
   exit 2
 fi
 if ! awk -v p="$check_level" 'BEGIN { exit !(p ~ /^[0-9.eE+-]+$/ && p + 0 > 0 && p + 0 < 1) }'; then
@@ -212,7 +244,42 @@ def identity(p):
     ident["last_change"] = {k: last.get(k) for k in ("tool", "version", "time")} if last else None
     return ident
 
+def promise(p):
+    """(false alarms per hour the thresholds mo-detect judges with stand for, whence), or None.
+    The newest calibration's statement in the provenance when it recorded one; else the rate its
+    rule asked of each joint (false_alarms_per_hour, per hour of every motion state) times the
+    joints; None when the thresholds were not calibrated by that rule (hand-set, --rule max)."""
+    if not isinstance(p, dict) or not isinstance(p.get("thresholds"), dict):
+        return None
+    th = p["thresholds"]
+    sig = "mu" if "mu" in th else "r" if "r" in th else None
+    if sig is None or not isinstance(th[sig], dict) or not isinstance(th[sig].get("joints"), list):
+        return None
+    joints = len(th[sig]["joints"])
+    provenance = p.get("provenance") if isinstance(p.get("provenance"), list) else []
+    for entry in reversed(provenance):
+        if not isinstance(entry, dict) or entry.get("tool") != "mo-calibrate":
+            continue
+        d = entry.get("details") if isinstance(entry.get("details"), dict) else {}
+        if "rule" not in d:  # not a threshold calibration (--classes)
+            continue
+        when = entry.get("time") or "an unknown time"
+        stated = d.get("false_alarms_expected_per_hour")
+        if isinstance(stated, dict):
+            stated = stated.get(sig)
+        if isinstance(stated, (int, float)) and stated >= 0:
+            return stated, f"stated by mo-calibrate on {when}"
+        asked = d.get("false_alarms_per_hour")
+        if d["rule"] == "rate" and isinstance(asked, (int, float)) and asked > 0 and joints:
+            return asked * joints, f"{asked:g} an hour asked of each of its {joints} joints by mo-calibrate on {when}"
+        return None
+    return None
+
 mode = sys.argv[1]
+if mode == "promise":  # PROFILE: prints "RATE<tab>WHENCE", or a tab alone without a promise
+    r = promise(load(sys.argv[2])[1])
+    print(f"{r[0]:.6g}\t{r[1]}" if r else "\t")
+    sys.exit(0)
 if mode == "before":  # PROFILE: what the night starts from, as one JSON object
     sha, p = load(sys.argv[2])
     print(json.dumps({"sha256": sha, "identity": identity(p), "thresholds": thresholds(p)}))
@@ -258,8 +325,26 @@ if e.get("NIGHTLY_NEW_EVENTS"):
             return float(e.get(name, ""))
         except ValueError:
             return None
+    def keeps(name):
+        v = e.get(name, "")
+        return True if v == "yes" else False if v == "no" else None
+    def alarms(name):  # the alarms file: log, events, times of detection
+        rows = []
+        try:
+            for row in open(e.get(name, "")).read().splitlines():
+                log, n, times = (row.split("\t") + ["", ""])[:3]
+                rows.append({"log": log, "events": int(n), "t_detect": [float(t) for t in times.split()]})
+        except (OSError, ValueError):
+            pass
+        return rows
     line["check_events"] = {"candidate": number("NIGHTLY_NEW_EVENTS"), "in_place": number("NIGHTLY_OLD_EVENTS"),
-                            "expected": real("NIGHTLY_EXPECTED_EVENTS"), "hours": real("NIGHTLY_CHECK_HOURS")}
+                            "expected": real("NIGHTLY_EXPECTED_EVENTS"), "hours": real("NIGHTLY_CHECK_HOURS"),
+                            "in_place_expected": real("NIGHTLY_OLD_EXPECTED_EVENTS"),
+                            "candidate_chance": real("NIGHTLY_NEW_CHANCE"), "in_place_chance": real("NIGHTLY_OLD_CHANCE"),
+                            "level": real("NIGHTLY_CHECK_LEVEL"),
+                            "candidate_keeps_promise": keeps("NIGHTLY_NEW_KEEPS"),
+                            "in_place_keeps_promise": keeps("NIGHTLY_OLD_KEEPS"),
+                            "alarms": {"candidate": alarms("NIGHTLY_NEW_ALARMS"), "in_place": alarms("NIGHTLY_OLD_ALARMS")}}
 if e.get("NIGHTLY_BACKUP") and outcome == "installed":
     line["backup"] = e["NIGHTLY_BACKUP"]
 started, finished = float(e["NIGHTLY_STARTED_S"]), float(e["NIGHTLY_FINISHED_S"])
@@ -269,7 +354,8 @@ print(json.dumps(line, separators=(", ", ": ")))
 EOF
 )
 outcome="" reason="" calibrated=0 backup="" new_events="" old_events="" locked=0 json_ready=0
-expected_events="" check_hours=""
+expected_events="" check_hours="" old_expected_events="" new_chance="" old_chance="" new_keeps="" old_keeps=""
+sha_start="" install_temp=""
 started=$(date -u +%Y-%m-%dT%H:%M:%SZ) started_s=$(date +%s.%N)
 if [[ -n $json_file ]]; then
   command -v python3 > /dev/null || { echo "nightly-recalibrate: --json needs python3" >&2; exit 2; }
@@ -292,6 +378,9 @@ write_json() {  # exit-status
     NIGHTLY_OUTCOME=$outcome NIGHTLY_REASON=$reason NIGHTLY_ROBOT=$robot NIGHTLY_DAY=${logs_dir:+$(basename "$logs_dir")} \
     NIGHTLY_LOGS=${#logs[@]} NIGHTLY_NEW_EVENTS=$new_events NIGHTLY_OLD_EVENTS=$old_events NIGHTLY_BACKUP=$backup \
     NIGHTLY_EXPECTED_EVENTS=$expected_events NIGHTLY_CHECK_HOURS=$check_hours \
+    NIGHTLY_OLD_EXPECTED_EVENTS=$old_expected_events NIGHTLY_NEW_CHANCE=$new_chance NIGHTLY_OLD_CHANCE=$old_chance \
+    NIGHTLY_CHECK_LEVEL=$check_level NIGHTLY_NEW_KEEPS=$new_keeps NIGHTLY_OLD_KEEPS=$old_keeps \
+    NIGHTLY_NEW_ALARMS=${work:+$work/alarms-candidate.tsv} NIGHTLY_OLD_ALARMS=${work:+$work/alarms-in_place.tsv} \
     NIGHTLY_LOG=$log_file NIGHTLY_STARTED=$started NIGHTLY_STARTED_S=$started_s \
     NIGHTLY_FINISHED=$(date -u +%Y-%m-%dT%H:%M:%SZ) NIGHTLY_FINISHED_S=$(date +%s.%N) \
     python3 -c "$json_program" line >&8 ||
@@ -320,6 +409,7 @@ cleanup() {
   local status=$?
   ((json_ready)) && write_json "$status"
   [[ -n $work ]] && rm -rf "$work"
+  [[ -n $install_temp ]] && rm -f "$install_temp"
   # The candidate is this run's only while it holds the lock (another run's otherwise).
   ((locked)) && rm -f "$candidate"
   return 0
@@ -365,6 +455,8 @@ fi
 locked=1
 
 say "---- nightly recalibration of $profile from ${#logs[@]} logs"
+# What the night starts from: installed over only if the profile is still this at the end.
+sha_start=$(sha256sum < "$profile") || keep_old "cannot read $profile"
 tools=(mo-observe mo-lugre-fit mo-calibrate mo-detect)
 ((fit_dynamics)) && tools+=(mo-dynfit)
 for tool in "${tools[@]}"; do
@@ -474,15 +566,20 @@ to_log < "$work/calibration.txt"
 calibrated=1
 
 # 6. Check: events on the check part, candidate and profile in place.
-events() {  # profile observed-streams...: prints the number of events and the hours the
-  # streams cover, or "none" without thresholds
-  local p=$1 total=0 seconds=0 n s status
-  shift
-  for f in "$@"; do
-    mo-detect -q --stats -p "$p" "$f" > "$work/events.csv" 2> "$work/detect.stats"
+# Counts the events a profile raises on observed streams of the check part: prints the number
+# of events and the hours the streams cover, or "none" when the detector cannot run with that
+# profile (no thresholds); the logs with events and the times of detection go to
+# $work/alarms-LABEL.tsv (log, events, the first 20 t_detect in s).
+events() {  # label profile prefix index...
+  local label=$1 p=$2 prefix=$3 total=0 seconds=0 n s status i
+  shift 3
+  : > "$work/alarms-$label.tsv"
+  for i in "$@"; do
+    mo-detect -q --stats -p "$p" "$work/$prefix-$i.bin" > "$work/events.csv" 2> "$work/detect.stats"
     status=$?
     grep -v '^mo-detect: ' "$work/detect.stats" >> "$work/detect.err"
-    if ((status == 2)); then
+    # 0: no collision, 1: collisions; anything else: the detector could not judge the log.
+    if ((status != 0 && status != 1)); then
       echo none
       return
     fi
@@ -490,13 +587,33 @@ events() {  # profile observed-streams...: prints the number of events and the h
     s=$(sed -n 's/^mo-detect: [0-9]* rows over \([^ ]*\) s,.*/\1/p' "$work/detect.stats")
     total=$((total + n))
     seconds=$(awk -v a="$seconds" -v b="${s:-0}" 'BEGIN { printf "%.6f", a + b }')
+    if ((n > 0)); then
+      printf '%s\t%d\t%s\n' "${logs[i]}" "$n" \
+        "$(awk -F, '$5 == "onset" && ++k <= 20 { printf "%s%s", sep, $2; sep = " " }' "$work/events.csv")" \
+        >> "$work/alarms-$label.tsv"
+    fi
   done
   awk -v n="$total" -v s="$seconds" 'BEGIN { printf "%d %.6g\n", n, s / 3600 }'
 }
+# P(N >= n) for N Poisson with mean m: how likely a count at least this large is by chance.
+chance_of() {  # n m
+  awk -v n="$1" -v m="$2" 'BEGIN {
+    below = 0; term = exp(-m)
+    for (k = 0; k < n; ++k) { below += term; term *= m / (k + 1) }
+    p = 1 - below; printf "%.3g", p < 0 ? 0 : p }'
+}
+# "LOG at T1, T2 s; LOG at T s" from an alarms file: at most 5 times a log, 5 logs.
+alarm_list() {  # alarms-file
+  awk -F'\t' 'NR <= 5 {
+      split($3, t, " "); times = ""
+      for (k = 1; k <= 5 && k in t; ++k) times = times (k > 1 ? ", " : "") t[k]
+      more = $2 > 5 ? sprintf(" and %d more", $2 - 5) : ""
+      printf "%s%s at %s s%s", sep, $1, times, more; sep = "; " }
+    END { if (NR > 5) printf "; %d more logs", NR - 5 }' "$1"
+}
 observe_logs "$candidate" new "${odd[@]}" || keep_old "cannot observe $failed_log with the candidate"
-mapfile -t new_check < <(observed new "${odd[@]}")
-read -r new_events check_hours < <(events "$candidate" "${new_check[@]}")
-read -r old_events _ < <(events "$profile" "${old_check[@]}")
+read -r new_events check_hours < <(events candidate "$candidate" new "${odd[@]}")
+read -r old_events _ < <(events in_place "$profile" old "${odd[@]}")
 if [[ $new_events == none ]]; then
   to_log < "$work/detect.err"
   keep_old "the candidate cannot run the detector (see above)"
@@ -506,26 +623,67 @@ rate=$(awk '$1 == "#" && $3 == "false" && $4 == "alarms" && $5 == "expected:" { 
   END { print ("mu" in r) ? r["mu"] : ("r" in r) ? r["r"] : "" }' "$work/calibration.txt")
 [[ -n $rate ]] || keep_old "the calibration states no false-alarm rate (see above)"
 expected_events=$(awk -v r="$rate" -v h="$check_hours" 'BEGIN { printf "%.4g", r * h }')
-# P(N >= n) for N Poisson with mean `expected_events`.
-chance=$(awk -v n="$new_events" -v m="$expected_events" 'BEGIN {
-  below = 0; term = exp(-m)
-  for (k = 0; k < n; ++k) { below += term; term *= m / (k + 1) }
-  p = 1 - below; printf "%.3g", p < 0 ? 0 : p }')
+new_chance=$(chance_of "$new_events" "$expected_events")
+# The profile in place promised a rate too, when it was calibrated (its provenance says which;
+# see in_place_promise): judged on the same logs by the same rule.
+old_rate="" old_rate_from=""
+if [[ $old_events != none ]]; then
+  if command -v python3 > /dev/null; then
+    IFS=$'\t' read -r old_rate old_rate_from < <(python3 -c "$json_program" promise "$profile")
+  else
+    say "python3 not found: the profile in place's promise cannot be read, only the candidate is judged"
+  fi
+fi
+old_keeps=unknown
+if [[ -n $old_rate ]]; then
+  old_expected_events=$(awk -v r="$old_rate" -v h="$check_hours" 'BEGIN { printf "%.4g", r * h }')
+  old_chance=$(chance_of "$old_events" "$old_expected_events")
+  old_keeps=yes
+  awk -v p="$old_chance" -v level="$check_level" 'BEGIN { exit !(p < level) }' && old_keeps=no
+fi
+new_keeps=yes
+awk -v p="$new_chance" -v level="$check_level" 'BEGIN { exit !(p < level) }' && new_keeps=no
 say "check part ($check_hours h): candidate $new_events events (its calibration stands for $expected_events;" \
-  "as many or more by chance: $chance), profile in place $old_events"
-if awk -v p="$chance" -v level="$check_level" 'BEGIN { exit !(p < level) }'; then
+  "as many or more by chance: $new_chance), profile in place $old_events" \
+  "${old_rate:+(it stands for $old_expected_events, $old_rate_from; as many or more by chance: $old_chance)}"
+[[ -s $work/alarms-candidate.tsv ]] && say "the candidate's events: $(alarm_list "$work/alarms-candidate.tsv")"
+[[ -s $work/alarms-in_place.tsv ]] && say "the events of the profile in place: $(alarm_list "$work/alarms-in_place.tsv")"
+old_said="the profile in place raises $old_events events there where it stands for $old_expected_events"
+new_said="the candidate raises $new_events where it stands for $expected_events"
+if [[ $new_keeps == no && $old_keeps == no ]]; then
+  # Neither profile describes the arm of this day (or the day held collisions): no profile to
+  # trust, and nothing a night can decide. Loud: its own outcome and exit status.
+  outcome=alarming
+  reason="neither profile keeps its promise on the check logs: $old_said, $new_said;"
+  reason+=" the candidate's events: $(alarm_list "$work/alarms-candidate.tsv")"
+  reason+="; a collision in these logs, or an arm that no longer matches its model: look at them"
+  say "ALARMING, $profile unchanged: $reason"
+  exit 3
+fi
+if [[ $new_keeps == no ]]; then
   keep_old --refused "the candidate raises $new_events events on collision-free logs (its calibration stands for $expected_events)"
 fi
-if [[ $old_events != none ]] && ((new_events > old_events)); then
-  keep_old --refused "the candidate raises more events than the profile in place"
+arm_changed=0
+if [[ $old_keeps == no ]]; then
+  # The profile in place breaks its own promise where the candidate, fitted on the same day,
+  # keeps its: the arm changed (wear, a new tool). Thresholds that grew are then what the arm
+  # needs, not a sign of a contact the calibration missed.
+  arm_changed=1
+  reason="the profile in place breaks its promise: $old_events events on the check logs where it stands for"
+  reason+=" $old_expected_events (chance $old_chance); the candidate keeps its: $new_events where it stands for $expected_events"
+  say "the arm changed: $reason"
+else
+  if [[ $old_events != none ]] && ((new_events > old_events)); then
+    keep_old --refused "the candidate raises more events than the profile in place"
+  fi
+  # Thresholds must not balloon: a day that calibrates far looser than the profile in place,
+  # while the profile in place keeps quiet, is suspicious (a contact the contact check missed,
+  # a sensor fault).
+  growth=$(awk -v limit="$max_increase" '
+    $1 == "#" && $2 == "change" && $9 ~ /%$/ && $9 + 0 > limit { printf "%s%s %s %s -> %s Nm (%s)", sep, $3, $4, $5, $7, $9; sep = "; " }
+  ' "$work/calibration.txt")
+  [[ -z $growth ]] || keep_old --refused "thresholds grew by more than $max_increase%: $growth"
 fi
-
-# Thresholds must not balloon: a day that calibrates far looser than the profile in place is
-# suspicious (a contact the contact check missed, a sensor fault).
-growth=$(awk -v limit="$max_increase" '
-  $1 == "#" && $2 == "change" && $9 ~ /%$/ && $9 + 0 > limit { printf "%s%s %s %s -> %s Nm (%s)", sep, $3, $4, $5, $7, $9; sep = "; " }
-' "$work/calibration.txt")
-[[ -z $growth ]] || keep_old --refused "thresholds grew by more than $max_increase%: $growth"
 
 if ((dry_run)); then
   outcome=dry-run
@@ -533,13 +691,59 @@ if ((dry_run)); then
   exit 0
 fi
 
-# 7. Install: dated backup, then one rename.
+# 7. Install, through the tools' own lock and rename (lib/src/core/file.cpp: FileLock,
+# replace_file): the file the profile names through its symbolic links is locked with flock(2)
+# on the file itself (and locked again when a holder renamed a new file over it meanwhile);
+# under the lock the night checks that the profile is still the one it started from, backs it
+# up, writes the candidate to a temporary file beside it (.NAME.XXXXXX, the tools' pattern) and
+# renames that over it. A symbolic link stays a link and its target gets the new profile; a
+# tool updating the profile in place holds the same lock, so the night waits for it (at most
+# --lock-wait s) and never writes over its update.
+target=$(readlink -f -- "$profile") && [[ -f $target ]] || keep_old "cannot resolve $profile to a plain file"
+lock_fd=""
+take_profile_lock() {  # 0: locked (lock_fd); 1: still held by another after --lock-wait s; 2: cannot open
+  local attempt
+  for ((attempt = 0; attempt < 100; ++attempt)); do
+    exec {lock_fd}< "$target" || return 2
+    if ! flock -n "$lock_fd"; then
+      say "waiting (at most $lock_wait s) for the lock on $target: a tool is updating it in place"
+      if ! flock -w "$lock_wait" "$lock_fd"; then
+        exec {lock_fd}<&-
+        return 1
+      fi
+    fi
+    # The holder may have renamed a new file over the one locked: lock that one.
+    [[ $(stat -L -c %d:%i "/dev/fd/$lock_fd") == "$(stat -c %d:%i "$target" 2> /dev/null)" ]] && return 0
+    exec {lock_fd}<&-
+  done
+  return 2
+}
+take_profile_lock
+case $? in
+  1) keep_old "the lock on $target was held for more than $lock_wait s (a tool updating the profile in place?);" \
+       "the candidate is not installed" ;;
+  2) keep_old "cannot lock $target" ;;
+esac
+if [[ $(sha256sum < "$target") != "$sha_start" ]]; then
+  keep_old --kept "the profile changed during the night (updated in place by a tool, or by hand): the candidate," \
+    "made from the profile as it was, is not installed over the change"
+fi
 backup="$backups/$name.$(date -u +%Y%m%dT%H%M%SZ).json"
-cp -p "$profile" "$backup" || keep_old "cannot back up to $backup"
-chmod --reference="$profile" "$candidate" 2> /dev/null
-mv -f "$candidate" "$profile" || keep_old "cannot rename the candidate over the profile"
+cp -p "$target" "$backup" || keep_old "cannot back up to $backup"
+install_temp=$(mktemp "$(dirname "$target")/.$(basename "$target").XXXXXX") ||
+  keep_old "cannot create a temporary file beside $target"
+cat "$candidate" > "$install_temp" || keep_old "cannot write $install_temp"
+chmod --reference="$target" "$install_temp" 2> /dev/null
+chown --reference="$target" "$install_temp" 2> /dev/null
+sync "$install_temp" 2> /dev/null
+# One rename(2) within the target's folder (mv asks nothing with standard input not a terminal).
+mv -T -- "$install_temp" "$target" < /dev/null || keep_old "cannot rename the candidate over $target"
+install_temp=""
+sync "$(dirname "$target")" 2> /dev/null
+exec {lock_fd}<&-
+rm -f "$candidate"
 outcome=installed
-say "INSTALLED the new profile; the old one is $backup"
+say "INSTALLED the new profile$([[ $target == "$profile" ]] || echo " in $target, the file the link names"); the old one is $backup"
 mapfile -t old_backups < <(ls -1 "$backups"/"$name".*.json 2> /dev/null | sort -r | tail -n +$((keep + 1)))
 for f in "${old_backups[@]}"; do
   rm -f "$f" && say "removed old backup $f"

@@ -16,8 +16,9 @@
 #
 # Exit status: 0 when every robot's night ran to a result: installed, refused (a refusal is a
 # result: the robot keeps yesterday's profile) or kept (nothing to go on); 1 when any failed
-# (a broken log, a missing tool; the line says why, the robot's nightly.log says more); 2 on a
-# usage error.
+# (a broken log, a missing tool; the line says why, the robot's nightly.log says more) or ended
+# alarming (neither its candidate nor its profile in place keeps its promise on the check logs:
+# the line names the logs and the times of the events); 2 on a usage error.
 #
 # The fleet's night with jq (one line per robot; see README.md):
 #   jq -r '.outcome' RESULTS | sort | uniq -c
@@ -80,7 +81,7 @@ summary=$(jq -rs --arg day "$day" --argjson robots "${#robots[@]}" '
   | "fleet: day \($day), \($robots) robots: \(if $counts == "" then "no results" else $counts end)"
 ' "$night") || summary="fleet: day $day, ${#robots[@]} robots: unreadable results (see $results)"
 lines=$(grep -c '^{' "$night")
-failed=$(jq -s '[.[] | select(.outcome == "failed")] | length' "$night" 2> /dev/null || echo 1)
+failed=$(jq -s '[.[] | select(.outcome == "failed" or .outcome == "alarming")] | length' "$night" 2> /dev/null || echo 1)
 missing=""
 ((lines == ${#robots[@]})) || missing=", $((${#robots[@]} - lines)) robots without a result"
 echo "$summary$missing; $((SECONDS - start)) s, -j $jobs; results in $results" >&2

@@ -20,8 +20,9 @@
 # The nightly script is MOMENTUM_NIGHTLY, else ../nightly-recalibrate.sh beside this folder.
 #
 # Exit status: 0 when the night ran to a result (installed, dry-run, refused or kept: a refusal
-# is a result); 1 when it failed (the line says why); 2 on a usage error or an index past the
-# end of the fleet.
+# is a result); 1 when it failed or ended alarming (neither the candidate nor the profile in
+# place keeps its promise on the check logs: the line names the logs and times); 2 on a usage
+# error or an index past the end of the fleet.
 set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 nightly=${MOMENTUM_NIGHTLY:-$here/../nightly-recalibrate.sh}
@@ -85,9 +86,15 @@ print(json.dumps({"robot": e["ROBOT"], "profile": e["PROFILE"], "day": e["DAY"],
                  separators=(", ", ": ")))' > "$tmp" || exit 1
 fi
 if [[ -n $results ]]; then
-  mkdir -p "$results" && cp "$tmp" "$results/.$robot.json.tmp" && mv -f "$results/.$robot.json.tmp" "$results/$robot.json" ||
-    echo "recalibrate-robot: cannot write $results/$robot.json" >&2
+  # Replaced by one rename beside the file it names (a symbolic link stays a link).
+  written=0
+  if mkdir -p "$results" && out=$(readlink -f -- "$results/$robot.json") &&
+    part=$(mktemp "$(dirname "$out")/.$(basename "$out").XXXXXX"); then
+    cp "$tmp" "$part" && chmod 644 "$part" && mv -T -- "$part" "$out" < /dev/null && written=1
+    ((written)) || rm -f "$part"
+  fi
+  ((written)) || echo "recalibrate-robot: cannot write $results/$robot.json" >&2
 fi
 cat "$tmp"
-grep -q '"outcome": "failed"' "$tmp" && exit 1
+grep -q -e '"outcome": "failed"' -e '"outcome": "alarming"' "$tmp" && exit 1
 exit 0
