@@ -74,10 +74,15 @@ std::span<const Event> Detector::step(double t, const double* x, const double* d
       signed_stat = T.rest_absolute ? xr : xr - J.baseline.value();
       // After an event, the level a joint settles at is the torque the controller still holds
       // against that contact: the change from it is judged too (see DetectorOptions::aftermath).
-      if (T.rest_absolute && J.after_event && options_.aftermath > 0 && std::fabs(xr - J.baseline.value()) < std::fabs(xr))
+      const bool in_event = open_ && J.fired;
+      if (T.rest_absolute && J.after_event && !in_event && options_.aftermath > 0 &&
+          std::fabs(xr - J.baseline.value()) < std::fabs(xr))
         signed_stat = xr - J.baseline.value();
       stat = std::fabs(signed_stat);
-      J.baseline.update(t, xr, T.rest_absolute ? options_.aftermath : T.rest_drift);
+      // An absolute statistic's baseline serves the aftermath only: it starts where the joint
+      // is when its event ends, and follows the level it settles at from there.
+      if (T.rest_absolute && in_event) J.baseline.start(t, xr);
+      else J.baseline.update(t, xr, T.rest_absolute ? options_.aftermath : T.rest_drift);
       threshold = *T.rest;
       band = T.rest_band;
     } else {
