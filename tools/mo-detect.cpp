@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
       ->type_name("SECONDS");
   app.add_option("--join", options.detector.join, "a joint firing this long after the onset starts a new event, s (0.25)")
       ->type_name("SECONDS");
+  app.add_option("--aftermath", options.detector.aftermath,
+                 "integral time of the arm's controller: its unloading after a contact is no new event, s (2; 0: off)")
+      ->type_name("SECONDS");
   auto* band_option = app.add_option("--onset-band", onset_band, "onset band as a fraction of the threshold")
                           ->type_name("FRACTION");
   app.add_option("--skip", options.detector.skip, "seconds at the start of the stream that do not count (0)")

@@ -438,3 +438,102 @@ TEST(Detector, AJointThatDipsBrieflyDoesNotReArm) {
   ASSERT_EQ(r.rows.size(), 2u);
   EXPECT_EQ(r.rows[1].ended_by, EndReason::release);
 }
+
+namespace {
+// The residual of a joint a contact loaded with `load` Nm from t = 1 s to 3 s, in the shape a
+// position controller gives it after the release (mo-sim's plant, the UR10e's logs): back in
+// its band for 0.3 s while the arm snaps back, then the torque its integrator built up and
+// stiction now holds shows (rising at 0.3 s) and unloads at the integral time, 2 s.
+double after_release(double t, double load, double held) {
+  if (t < 1) return 0;
+  if (t < 3) return load;
+  const double s = t - 3.3;
+  return s < 0 ? 0 : held * -std::expm1(-s / 0.3) * std::exp(-s / 2);
+}
+int count_onsets(const Run& r) {
+  int onsets = 0;
+  for (const auto& e : r.rows) onsets += e.kind == EventKind::onset;
+  return onsets;
+}
+}  // namespace
+
+TEST(Detector, TheControllersUnloadingAfterAReleaseIsNoNewEvent) {
+  // Threshold 1; the push loads 3 Nm for 2 s, the controller then shows up to 1.6 x 0.8 ~ 1.2 Nm
+  // (over the threshold) while it unloads. The held torque the detector allows for after the
+  // event is 3 (1 - e^-1) = 1.9 Nm at its end, decaying at 2 s: the unloading stays under it.
+  auto x = [](int k, int) { return after_release(k * kDt, 3, 1.6); };
+  Detector with(constant({1}), {}, false);
+  auto r = run(with, 10 * 1024, x, moving);
+  EXPECT_EQ(count_onsets(r), 1);
+  // Without the aftermath the unloading is a second event (the defect of issue 25).
+  DetectorOptions off;
+  off.aftermath = 0;
+  Detector without(constant({1}), off, false);
+  EXPECT_EQ(count_onsets(run(without, 10 * 1024, x, moving)), 2);
+}
+
+TEST(Detector, ASecondContactDuringTheAftermathIsStillFound) {
+  // During the unloading, at t = 4.5 s, a second push of 3 Nm, a step or a ramp over 0.2 s. On
+  // the side the first loaded, it is seen once it rises beyond threshold + held torque
+  // (1 + 1.9 e^(-1.3/2) ~ 2.0 Nm, with the unloading's own ~1 Nm under it): the step on its
+  // first row, the ramp within 0.1 s. On the other side nothing is held: the ramp is detected
+  // on the first row where the residual is under -threshold. (Without the aftermath the
+  // unloading opens an event of its own that is still open at 4.5 s: the push goes unseen.)
+  const int at = static_cast<int>(4.5 * 1024);
+  for (double sign : {1.0, -1.0}) {
+    for (double ramp : {0.0, 0.2}) {
+      auto x = [&](int k, int) {
+        const double t = k * kDt, s = t - at * kDt;
+        const double push = s < 0 || s > 1 ? 0 : (ramp > 0 ? std::min(1.0, s / ramp) : 1.0) * 3;
+        return after_release(t, 3, 1.6) + sign * push;
+      };
+      Detector d(constant({1}), {}, false);
+      auto r = run(d, 10 * 1024, x, moving);
+      std::vector<Event> onsets;
+      for (const auto& e : r.rows)
+        if (e.kind == EventKind::onset) onsets.push_back(e);
+      ASSERT_EQ(onsets.size(), 2u) << sign << " " << ramp;
+      const double delay = onsets[1].t_detect - at * kDt;
+      if (ramp == 0) {
+        EXPECT_EQ(delay, 0) << sign;
+      } else if (sign > 0) {
+        EXPECT_GT(delay, 0);
+        EXPECT_LT(delay, 0.1);
+      } else {
+        // The first row where the residual itself is under -threshold: nothing added.
+        int k = at;
+        while (!(x(k, 0) < -1)) ++k;
+        EXPECT_DOUBLE_EQ(onsets[1].t_detect, k * kDt);
+      }
+    }
+  }
+}
+
+TEST(Detector, AJointAtRestJudgesTheLevelItSettledAtAfterAContact) {
+  // At rest, absolute rest statistic (threshold 0.5). A push of 3 Nm from 1 s to 3 s; after it
+  // stiction holds 0.9 Nm for good (over the threshold): torque the controller built up against
+  // that push, no new contact. With the aftermath it is judged by its change from the level it
+  // settles at too: one event. A second push of 2 Nm at 8 s is found at once.
+  auto held = [](int k, int) {
+    const double t = k * kDt;
+    double x = t >= 1 && t < 3 ? 3.0 : (t >= 3.3 ? 0.9 * -std::expm1(-(t - 3.3) / 0.3) : 0.0);
+    return x + (t >= 8 && t < 9 ? 2.0 : 0.0);
+  };
+  Detector d(with_rest(5, 0.5, true), {}, true);
+  auto r = run(d, 12 * 1024, held, still);
+  std::vector<Event> onsets;
+  for (const auto& e : r.rows)
+    if (e.kind == EventKind::onset) onsets.push_back(e);
+  ASSERT_EQ(onsets.size(), 2u);
+  EXPECT_DOUBLE_EQ(onsets[0].t_detect, 1.0);
+  EXPECT_DOUBLE_EQ(onsets[1].t_detect, 8.0);
+  // Without it the held level is taken for a contact on its own, and the event it opens stays
+  // open over the second push, which then goes unreported.
+  DetectorOptions off;
+  off.aftermath = 0;
+  Detector without(with_rest(5, 0.5, true), off, true);
+  auto w = run(without, 12 * 1024, held, still);
+  ASSERT_EQ(count_onsets(w), 2);
+  EXPECT_LT(w.rows[2].t_detect, 4.0);
+  EXPECT_EQ(w.rows[2].kind, EventKind::onset);
+}

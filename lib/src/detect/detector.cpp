@@ -23,6 +23,7 @@ bool DetectorOptions::IsValid(std::string* why) const {
   if (onset_band && !(*onset_band > 0 && *onset_band <= 1)) return bad("onset band must be in (0, 1]");
   if (!(skip >= 0 && std::isfinite(skip))) return bad("skip must be >= 0 s");
   if (!(join >= 0 && std::isfinite(join))) return bad("join must be >= 0 s");
+  if (!(aftermath >= 0 && std::isfinite(aftermath))) return bad("aftermath must be >= 0 s");
   return true;
 }
 
@@ -42,6 +43,7 @@ Detector::Detector(Thresholds thresholds, DetectorOptions options, bool have_vel
 std::span<const Event> Detector::step(double t, const double* x, const double* dq, const double* x_rest) {
   if (rows_ == 0) t_first_ = t;
   ++rows_;
+  const double t_previous = t_last_;
   t_last_ = t;
   out_count_ = 0;
   const bool judged = !(t - t_first_ < options_.skip);
@@ -59,8 +61,9 @@ std::span<const Event> Detector::step(double t, const double* x, const double* d
     // A state without a threshold of its own falls to the next rule down, as in calibration.
     if (state == MotionState::rest && !T.rest) state = MotionState::slow;
     if (state == MotionState::slow && !T.slow) state = MotionState::moving;
-    double stat, threshold, band;
+    double stat, threshold, band, signed_stat;
     if (state == MotionState::slow) {
+      signed_stat = x[j];
       stat = std::fabs(x[j]);
       threshold = *T.slow;
       band = T.slow_band;
@@ -68,11 +71,22 @@ std::span<const Event> Detector::step(double t, const double* x, const double* d
       ++J.rest_rows;
       const double xr = judged_at_rest[j];
       if (!J.was_rest) J.baseline.start(t, J.tracker.baseline());
-      stat = T.rest_absolute ? std::fabs(xr) : std::fabs(xr - J.baseline.value());
-      J.baseline.update(t, xr, T.rest_drift);
+      signed_stat = T.rest_absolute ? xr : xr - J.baseline.value();
+      // After an event, the level a joint settles at is the torque the controller still holds
+      // against that contact: the change from it is judged too (see DetectorOptions::aftermath).
+      const bool in_event = open_ && J.fired;
+      if (T.rest_absolute && J.after_event && !in_event && options_.aftermath > 0 &&
+          std::fabs(xr - J.baseline.value()) < std::fabs(xr))
+        signed_stat = xr - J.baseline.value();
+      stat = std::fabs(signed_stat);
+      // An absolute statistic's baseline serves the aftermath only: it starts where the joint
+      // is when its event ends, and follows the level it settles at from there.
+      if (T.rest_absolute && in_event) J.baseline.start(t, xr);
+      else J.baseline.update(t, xr, T.rest_absolute ? options_.aftermath : T.rest_drift);
       threshold = *T.rest;
       band = T.rest_band;
     } else {
+      signed_stat = x[j];
       stat = std::fabs(x[j]);
       threshold = T.moving;
       if (T.envelope && options_.use_envelope && have_velocity_ && std::isfinite(v))
@@ -86,6 +100,7 @@ std::span<const Event> Detector::step(double t, const double* x, const double* d
       }
     }
     J.was_rest = state == MotionState::rest;
+    if (state == MotionState::moving) J.after_event = false;
     const double centre = state == MotionState::rest && !T.rest_absolute ? J.baseline.value() : 0.0;
     bounds_[j] = Bounds{centre - threshold, centre + threshold, state == MotionState::rest};
     if (options_.onset_band) band = *options_.onset_band * threshold;
@@ -100,7 +115,20 @@ std::span<const Event> Detector::step(double t, const double* x, const double* d
       J.in_band = false;
       J.run_peak = std::max(J.run_peak, magnitude);
     }
-    J.over = judged && stat > threshold ? J.over + 1 : 0;
+    // The aftermath: what the controller may still hold of the torque a contact loaded this
+    // joint with, on the side it loaded it (see DetectorOptions::aftermath). The integrator
+    // builds up the contact's torque while the joint is part of an event, and unloads it after.
+    const int side = signed_stat < 0 ? 1 : 0;
+    if (options_.aftermath > 0 && rows_ > 1) {
+      const double keep = std::exp(-(t - t_previous) / options_.aftermath);
+      const bool loading = open_ && J.fired && std::isfinite(stat);
+      for (int k = 0; k < 2; ++k) {
+        const double load = loading && k == side ? stat : 0.0;
+        J.held[k] = load + keep * (J.held[k] - load);
+      }
+    }
+    const double unloading = J.held[side];
+    J.over = judged && stat > threshold + unloading ? J.over + 1 : 0;
     fires_[j] = J.over >= options_.min_samples;
     // The row on which a firing run begins; only an armed joint's run is a new contact.
     crossing_[j] = J.over == options_.min_samples && J.armed;
@@ -183,7 +211,10 @@ void Detector::open_event(double t, const double* x) {
 
 void Detector::close_event(double t_end, EndReason reason) {
   open_ = false;
-  for (auto& J : joints_) J.fired = false;
+  for (auto& J : joints_) {
+    if (J.fired) J.after_event = true;  // until it moves: the controller may hold torque from it
+    J.fired = false;
+  }
   Event& e = out_[out_count_++];
   e = current_;
   e.kind = EventKind::end;

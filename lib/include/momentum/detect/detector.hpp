@@ -41,6 +41,17 @@ struct DetectorOptions {
   bool use_envelope = true;
   // Seconds from the first row during which no joint fires (the observer settles), >= 0.
   double skip = 0;
+  // The aftermath of an event: the time constant, s, over which a position controller builds up
+  // torque against a contact in its integrator and unloads it after the release (its integral
+  // time; "over seconds" on UR arms, 2 s in mo-sim). While a joint is part of an event, the
+  // torque it is loaded with on each side of its centre passes through a first-order lag of this
+  // time constant (what the integrator builds up), and after the event that held torque decays
+  // at it: the joint fires only beyond its threshold plus what it may still hold on that side,
+  // so the unloading is no new contact, while a rise beyond it, or on the other side, is. A joint whose rest statistic is
+  // absolute and that fired in an event is, until it moves again, also judged by its change
+  // from a baseline that follows its level at this time constant: the level it settles at is
+  // torque held against stiction from that contact, not a new one. 0: no aftermath. s >= 0.
+  double aftermath = 2.0;
   // Signal::mu: widens a moving joint's threshold and band by the friction model's uncertainty
   // at its speed (friction_band.hpp). Must be the band the thresholds were calibrated with
   // (friction_band_for builds it from the profile); empty: none.
@@ -97,6 +108,12 @@ class Detector {
     bool fired = false;      // fired during the open event
     bool armed = true;       // back for the hold time since it last fired
     double back_since = NAN;  // start of the current run of rows back in the band, s
+    // Torque the controller holds against this joint's last contact, on each side of the
+    // joint's centre (0: above, 1: below), Nm >= 0: while the joint is part of an open event,
+    // its statistic on that side through a first-order lag of time constant `aftermath`; after it,
+    // decaying at the same time constant (see DetectorOptions::aftermath).
+    double held[2] = {0, 0};
+    bool after_event = false;  // fired in an event and has not moved since
     std::uint64_t rest_rows = 0;
   };
   void open_event(double t, const double* x);
