@@ -341,14 +341,16 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
         return;
       }
       hold(row, impossible, why);
+    } else if (!impossible && !held[held_count - 1].impossible && agrees_with_last_held()) {
+      // The held rows were real: the sensors saw a fast change together. Asked first, so that
+      // a row that agrees with both (an impact within one interval, which the trapezoid over
+      // the longer interval may also pass) is observed, not left out.
+      release_held(true);
+      process(row, duplicate, nullptr, false);
+      return;
     } else if (!impossible && agrees_with_good(nullptr)) {
       leave_out_held("bridged");
       process(row, duplicate, nullptr, true);
-      return;
-    } else if (!impossible && !held[held_count - 1].impossible && agrees_with_last_held()) {
-      // The held rows were real: the sensors saw a fast change together.
-      release_held(true);
-      process(row, duplicate, nullptr, false);
       return;
     } else {
       hold(row, impossible, why);

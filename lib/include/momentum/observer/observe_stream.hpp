@@ -84,11 +84,11 @@ class StreamObserver {
   // Rows whose signals disagree (options.observer.signals, signal_check.hpp): a row beyond
   // the physical limits, or whose positions and velocities disagree with the last good row, is
   // held back (not yet written) until a later row decides: when a later row agrees with the
-  // last good row, the held rows were a sensor fault: they are written with the residual held
-  // at its last value (and `flagged` = 1), and the observer integrates from the last good row
-  // across them, as across a gap. When a later row agrees with the held ones instead, they
-  // were real (a fast change the sensors saw together): they are processed in order, exactly
-  // as without the check, so a real impact loses nothing but the wait. A stretch longer than
+  // last held row (beyond no limit), they were real (a fast change the sensors saw together):
+  // they are processed in order, exactly as without the check, so a real impact loses nothing
+  // but the wait. Otherwise, when a later row agrees with the last good row, the held rows were
+  // a sensor fault: they are written with the residual held at its last value (and `flagged`
+  // = 1), and the observer integrates from the last good row across them, as across a gap. A stretch longer than
   // a bridge (gap_factor median steps) is taken as it is (rows beyond the limits excepted,
   // and then the limits are not applied again until a row is within them), and one that the
   // stream ends or a bad row interrupts is left out. Each stretch left out is reported
