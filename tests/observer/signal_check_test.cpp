@@ -246,3 +246,30 @@ TEST(SignalCheck, LimitsAndTolerance) {
   options.limit_factor = 0.5;
   EXPECT_FALSE(options.IsValid(&why));
 }
+
+// Fine signals keep a fine tolerance: joints moving at a steady 0.5 rad/s, never at rest,
+// move 0.5 mrad every row, which is no quantisation step (the step estimate comes from second
+// differences, here 0): a velocity 0.2 rad/s off for one row (1e-4 rad of disagreement) is
+// left out. Its exact duplicate right after it is skipped as a duplicate, not observed in its
+// place.
+TEST(SignalCheck, FineSignalsAndADuplicateOfAHeldRow) {
+  Table table;
+  table.header = reference().header;
+  for (int k = 0; k < 300; ++k) {
+    std::vector<double> row(19, 0.0);
+    row[0] = 0.001 * k;
+    for (int j = 0; j < kJoints; ++j) {
+      row[q_col(j)] = 0.1 + 0.5 * row[0];
+      row[dq_col(j)] = 0.5;
+    }
+    table.rows.push_back(row);
+  }
+  table.rows[150][dq_col(0)] += 0.2;
+  table.rows.insert(table.rows.begin() + 151, table.rows[150]);
+  mo::ObserveStreamSummary summary;
+  const Table checked = observe(table, true, &summary);
+  EXPECT_EQ(summary.flagged_rows, 1u);
+  EXPECT_EQ(summary.duplicate_rows, 1u);
+  ASSERT_EQ(checked.rows.size(), 300u);
+  EXPECT_EQ(checked.rows[150][checked.column("flagged")], 1.0);
+}

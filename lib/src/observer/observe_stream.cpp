@@ -311,6 +311,14 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     bool finite = std::isfinite(t);
     for (int j = 0; j < n; ++j) finite = finite && std::isfinite(q[j]) && std::isfinite(dq[j]) && std::isfinite(tau[j]);
     const double t_reference = held_count ? held[held_count - 1].values[t_index_] : good_t;
+    if (finite && held_count && !(t > t_reference)) {
+      // A time fault after a held row (its duplicate, say): skipped as the observer skips one
+      // after a row it has taken, the held rows still waiting.
+      skip(duplicate, in_.where(),
+           std::string(duplicate ? "duplicate row" : "time does not increase") + ": t=" + exact(t) + " after t=" +
+               exact(t_reference));
+      return;
+    }
     if (!finite || (have_good && !(t > t_reference))) {
       // Not the check's to judge (the observer skips or restarts); held rows stay unconfirmed.
       leave_out_held("bridged");
@@ -322,9 +330,12 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     if (!beyond) limits_suspended = false;
     const bool impossible = beyond && !limits_suspended;
     const double typical_dt = observer_.median_dt();
+    // A row after lost samples is the observer's to judge (its bridge rule, TIMING FAULTS):
+    // the disagreement test applies between rows one step apart, or across rows held back.
+    const bool after_gap = held_count == 0 && observer_.is_gap(t);
     auto agrees_with_good = [&](std::string* reason) {
-      return !have_good || !check.disagree(good_t, good_q.data(), good_dq.data(), t, q.data(), dq.data(),
-                                           typical_dt, reason);
+      return !have_good || after_gap ||
+             !check.disagree(good_t, good_q.data(), good_dq.data(), t, q.data(), dq.data(), typical_dt, reason);
     };
     auto agrees_with_last_held = [&] {
       const std::vector<double>& last = held[held_count - 1].values;

@@ -81,8 +81,8 @@ int SignalCheck::beyond_limits(const double* q, const double* dq, const double* 
 double SignalCheck::tolerance(int j, double interval, double typical_dt) const {
   if (!ready()) return kInf;
   const Joint& J = joints_[static_cast<std::size_t>(j)];
-  // Quantisation alone: two positions rounded independently differ from the truth by a
-  // uniform error of variance quantum^2 / 6; the mean of two rounded velocities, times dt, by
+  // Quantisation alone: the difference of two positions rounded independently is off by an
+  // error of variance quantum^2 / 6; the mean of two rounded velocities, times dt, by
   // dt^2 quantum^2 / 24.
   const double floor = std::sqrt(J.q_quantum * J.q_quantum / 6 +
                                  interval * interval * J.dq_quantum * J.dq_quantum / 24);
@@ -126,10 +126,17 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, doubl
     Joint& J = joints_[j];
     const double moved = q_b[j] - q_a[j];
     J.abs_error.push(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])));
-    const double step = std::fabs(moved), velocity_step = std::fabs(dq_b[j] - dq_a[j]);
-    if (step > 0 && (J.q_quantum == 0 || step < J.q_quantum)) J.q_quantum = step;
-    if (velocity_step > 0 && (J.dq_quantum == 0 || velocity_step < J.dq_quantum)) J.dq_quantum = velocity_step;
+    const double velocity_step = dq_b[j] - dq_a[j];
+    if (intervals_ > 0 && t_a == last_t_) {
+      const double q_curvature = std::fabs(moved - J.last_q_step);
+      const double dq_curvature = std::fabs(velocity_step - J.last_dq_step);
+      if (q_curvature > 0 && (J.q_quantum == 0 || q_curvature < J.q_quantum)) J.q_quantum = q_curvature;
+      if (dq_curvature > 0 && (J.dq_quantum == 0 || dq_curvature < J.dq_quantum)) J.dq_quantum = dq_curvature;
+    }
+    J.last_q_step = moved;
+    J.last_dq_step = velocity_step;
   }
+  last_t_ = t_b;
   ++intervals_;
   // The median of the window moves slowly: recomputing it every 8 intervals (and through the
   // warm-up) keeps the hot path cheap.

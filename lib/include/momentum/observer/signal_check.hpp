@@ -12,8 +12,8 @@
 //
 // The tolerance comes from the data, per joint: a running robust scale of e over the last
 // kWindow accepted intervals (1.4826 times the median of |e|, the standard deviation for normal
-// noise), floored by the quantisation noise of the signals themselves (the smallest nonzero
-// position and velocity steps seen), times `sigmas`; it grows in proportion with the interval
+// noise), floored by the quantisation noise of the signals themselves (their steps: the smallest
+// nonzero second differences of position and velocity seen), times `sigmas`; it grows in proportion with the interval
 // when rows in between are left out. Besides, a value beyond the URDF's limits by more than
 // `limit_factor` (positions about the middle of their range, velocities and efforts about 0),
 // or a position change faster than limit_factor times the velocity limit, cannot be physical.
@@ -72,8 +72,9 @@ class SignalCheck {
   bool disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
                 const double* dq_b, double typical_dt, std::string* why) const;
 
-  // Learns from an accepted interval a -> b: its |e| per joint enter the running scale, and
-  // its nonzero position and velocity steps the quantisation estimate.
+  // Learns from an accepted interval a -> b: its |e| per joint enter the running scale, and,
+  // when it continues the last interval learnt, the second differences of position and
+  // velocity the quantisation estimate.
   void learn(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
              const double* dq_b);
 
@@ -83,14 +84,19 @@ class SignalCheck {
  private:
   struct Joint {
     core::RunningMedian<kWindow> abs_error;
-    double q_quantum = 0;   // smallest nonzero |q_b - q_a| seen, rad; 0 none yet
-    double dq_quantum = 0;  // smallest nonzero |dq_b - dq_a| seen, rad/s; 0 none yet
+    // Quantisation steps: the smallest nonzero second difference seen (of consecutive
+    // intervals), which is a multiple of the step for a quantised signal and as small as the
+    // motion's own curvature for a fine one; 0 none yet. rad, rad/s.
+    double q_quantum = 0;
+    double dq_quantum = 0;
+    double last_q_step = 0, last_dq_step = 0;  // of the last interval learnt
     double lower = 0, upper = 0, velocity = 0, effort = 0;  // bounds with limit_factor
     double velocity_limit = 0;                              // the URDF's, times limit_factor
   };
   SignalCheckOptions options_;
   std::vector<Joint> joints_;
   std::uint64_t intervals_ = 0;
+  double last_t_ = 0;  // end of the last interval learnt: the next one continues it when equal
   int since_update_ = 0;
 };
 
