@@ -27,8 +27,8 @@ int main(int argc, char** argv) {
   tool.add_payload();
   std::optional<int> order;
   std::string k1, k2, k3, cutoff, update;
-  std::optional<double> gap_factor, bridge_tolerance, deadband, velocity_cutoff;
-  bool no_friction = false, restart_column = false;
+  std::optional<double> gap_factor, bridge_tolerance, deadband, velocity_cutoff, signal_sigmas, limit_factor;
+  bool no_friction = false, restart_column = false, flag_column = false, no_signal_check = false;
   auto& app = tool.app();
   app.add_option("--order", order, "observer order: 1, or 2 (the paper's eq. 9/11)")->type_name("N")->check(CLI::IsMember({1, 2}));
   app.add_option("--k1", k1, "low-pass gain K1, 1/s (one value or one per joint)")->type_name("LIST");
@@ -37,6 +37,10 @@ int main(int argc, char** argv) {
   app.add_option("--cutoff", cutoff, "set K1 = 2 pi HZ from a cutoff frequency")->type_name("HZ");
   app.add_option("--gap-factor", gap_factor, "bridge gaps of up to X median steps, restart after longer ones (default 5)")->type_name("X");
   app.add_option("--bridge-tolerance", bridge_tolerance, "largest position mismatch across a bridged gap, rad (default 0.001)")->type_name("RAD");
+  app.add_flag("--no-signal-check", no_signal_check, "take every row at its word (no test of q, dq and currents against each other and the limits)");
+  app.add_option("--signal-sigmas", signal_sigmas, "tolerance of the position-velocity disagreement, in robust standard deviations of its own (default 10)")->type_name("Z");
+  app.add_option("--limit-factor", limit_factor, "values beyond X times the URDF's limits are sensor faults (default 2)")->type_name("X");
+  app.add_flag("--flag-column", flag_column, "append a column 'flagged' (1 on rows left out because their signals disagree)");
   app.add_flag("--no-friction", no_friction, "ignore the profile's friction model (r only)");
   app.add_option("--friction-deadband", deadband, "treat |dq| below W as rest in the friction model, rad/s")->type_name("W");
   app.add_option("--friction-cutoff", velocity_cutoff, "low-pass the velocity driving the friction model, Hz")->type_name("HZ");
@@ -65,6 +69,9 @@ int main(int argc, char** argv) {
     if (o.order == 1 && (!k2.empty() || !k3.empty())) throw cli::UsageError("--k2 and --k3 need --order 2");
     if (gap_factor) o.gap_factor = *gap_factor;
     if (bridge_tolerance) o.bridge_tolerance = *bridge_tolerance;
+    if (no_signal_check) o.signals.enabled = false;
+    if (signal_sigmas) o.signals.sigmas = *signal_sigmas;
+    if (limit_factor) o.signals.limit_factor = *limit_factor;
     for (const auto& [option, text] : {std::pair{"--k1", &k1}, {"--cutoff", &cutoff}, {"--k2", &k2}, {"--k3", &k3}}) {
       const std::size_t count = core::split(*text).size();
       if (count > 1 && count != static_cast<std::size_t>(robot.nq))
@@ -94,6 +101,7 @@ int main(int argc, char** argv) {
       options.friction = &*friction;
     }
     options.restart_column = restart_column;
+    options.flag_column = flag_column;
     options.strict = tool.strict();
 
     cli::Progress progress(tool.show_progress());

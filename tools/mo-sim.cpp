@@ -8,6 +8,7 @@
 #include "momentum/cli/progress_text.hpp"
 #include "momentum/cli/tool.hpp"
 #include "momentum/core/number.hpp"
+#include "momentum/core/text.hpp"
 #include "momentum/sim/log.hpp"
 
 using namespace momentum;
@@ -79,6 +80,11 @@ int main(int argc, char** argv) {
   app.add_option("--clamping", run.contacts.clamp_fraction, "fraction of contacts that are clamps")->type_name("F")->capture_default_str();
   range_option(app, "--clamp-hold", ranges.clamp_hold, "clamp hold time range, s");
   app.add_option("--clamp-stiffness", run.contacts.clamp_stiffness, "clamping obstacle stiffness")->type_name("N/M")->capture_default_str();
+  std::string glitch_kinds;
+  app.add_option("--glitches", run.glitches.count, "sensor glitches at random rows away from the contacts (listed as comments of --truth)")->type_name("N")->capture_default_str();
+  app.add_option("--glitch-kinds", glitch_kinds, "glitch kinds in turn: stop, velocity, encoder, current (default stop,velocity,encoder)")->type_name("LIST");
+  app.add_option("--glitch-current", run.glitches.current, "current of a stop or current glitch")->type_name("A")->capture_default_str();
+  app.add_option("--glitch-velocity", run.glitches.velocity_jump, "velocity jump of a stop or velocity glitch")->type_name("RAD/S")->capture_default_str();
   bool mixed = false;
   app.add_flag("--mixed", mixed, "half impacts on stiff obstacles, half slow pushes (options given win)");
 
@@ -96,6 +102,15 @@ int main(int argc, char** argv) {
       run.contacts.links.push_back(static_cast<int>(link));
     }
 
+    if (!glitch_kinds.empty()) {
+      run.glitches.kinds.clear();
+      for (const std::string& name : core::split(glitch_kinds)) {
+        sim::GlitchKind kind;
+        if (!sim::parse_glitch_kind(name, &kind))
+          throw cli::UsageError("--glitch-kinds: '" + name + "' is not stop, velocity, encoder or current");
+        run.glitches.kinds.push_back(kind);
+      }
+    }
     const sim::SimulationSetup setup = sim::set_up_simulation(tool.profile(), run, duration);
     if (!setup.run.IsValid(&why)) throw cli::UsageError(why);
     output.provenance = tool.provenance();

@@ -92,6 +92,7 @@ StreamObserver::StreamObserver(stream::Reader& in, const model::Model& model,
     for (int j = 0; j < n; ++j) mu_out_.push_back(place("mu" + std::to_string(j + 1)));
   }
   if (options.restart_column) restart_out_ = place("restart");
+  if (options.flag_column) flagged_out_ = place("flagged");
 }
 
 ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
@@ -102,15 +103,38 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   const std::size_t width_in = in_.columns().size();
   std::vector<double> row_out(columns_.size());
   std::vector<double> q(n), dq(n), tau(n), r(n), tau_f(n), mu(n);
+  // The residual as last written: what a row left out is written with.
+  std::vector<double> held_r(n, 0.0), held_tau_f(n, 0.0), held_mu(n, 0.0);
   ObserveStreamSummary summary;
   std::string bad_run_start;
   // The previous row as read, to tell exact duplicates from other rows out of time order.
   std::vector<double> previous_row(width_in);
   bool have_previous_row = false;
   constexpr std::uint64_t kReportedPerKind = 5;
+  constexpr std::size_t kFlaggedTimes = 20;
   std::string first_skipped;
   std::uint64_t rows = 0;
   double t = 0;
+
+  // The signal check's reference: the last row the observer advanced with (t, q, dq), and
+  // whether the interval into it was a plain one (learnt from).
+  SignalCheck check(model_, options_.observer.signals);
+  const bool checking = options_.observer.signals.enabled;
+  std::vector<double> good_q(n), good_dq(n), held_q(n), held_dq(n);
+  double good_t = 0;
+  bool have_good = false;
+  bool limits_suspended = false;
+  std::string first_flagged;
+  // Rows held back while the signal check waits for a later row to decide (see run()).
+  struct Held {
+    std::vector<double> values;
+    std::string where;
+    std::string why;
+    bool impossible = false;  // beyond the physical limits: never taken as real
+  };
+  constexpr std::size_t kMaxHeld = 32;
+  std::vector<Held> held(kMaxHeld);
+  std::size_t held_count = 0;
 
   // Counts, reports (the first few of each kind) and skips a row whose time does not increase.
   auto skip = [&](bool duplicate, const std::string& where, const std::string& message) {
@@ -122,16 +146,36 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     if (count <= kReportedPerKind) warn_row(duplicate ? "duplicate row" : "time out of order", where + ": " + message + ": skipped");
   };
 
-  // Steps the observer with one row and writes it. `where`: its location, or nullptr for the
-  // row the reader returned last.
-  auto process = [&](const double* row, bool duplicate, const std::string* where) {
-    auto here = [&] { return where ? *where : in_.where(); };
+  auto unpack = [&](const double* row) {
     t = row[t_index_];
     for (int j = 0; j < n; ++j) {
       q[j] = row[q_index_[j]];
       dq[j] = row[dq_index_[j]];
       tau[j] = torque_scale_[j] * row[torque_index_[j]];
     }
+  };
+
+  auto write = [&](const double* row, bool restarted, bool flagged) {
+    std::copy(row, row + width_in, row_out.begin());
+    for (int j = 0; j < n; ++j) row_out[r_out_[j]] = r[j];
+    if (friction) {
+      for (int j = 0; j < n; ++j) {
+        row_out[tau_f_out_[j]] = tau_f[j];
+        row_out[mu_out_[j]] = mu[j];
+      }
+    }
+    if (restart_out_) row_out[*restart_out_] = restarted ? 1.0 : 0.0;
+    if (flagged_out_) row_out[*flagged_out_] = flagged ? 1.0 : 0.0;
+    out.row(row_out.data());
+    ++summary.rows_written;
+  };
+
+  // Steps the observer with one row and writes it. `where`: its location, or nullptr for the
+  // row the reader returned last. `after_left_out`: rows were left out just before it (the
+  // observer bridges them; not counted as a gap).
+  auto process = [&](const double* row, bool duplicate, const std::string* where, bool after_left_out) {
+    auto here = [&] { return where ? *where : in_.where(); };
+    unpack(row);
     const double previous_t = observer_.last_time();
     const SampleStatus status = observer_.step(t, q.data(), dq.data(), tau.data(), r.data(),
                                                tau_f.data(), mu.data());
@@ -142,8 +186,10 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
                  " after t=" + exact(previous_t));
         return;
       case SampleStatus::bridged:
-        ++summary.bridged_gaps;
-        summary.longest_bridge = std::max(summary.longest_bridge, observer_.last_gap());
+        if (!after_left_out) {
+          ++summary.bridged_gaps;
+          summary.longest_bridge = std::max(summary.longest_bridge, observer_.last_gap());
+        }
         break;
       case SampleStatus::invalid:
         if (bad_run_start.empty()) bad_run_start = here();
@@ -154,6 +200,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
         warn(here() + ": observer restarted at t=" + exact(t) + " after a gap of " +
              short_number(observer_.last_gap()) + " s (median dt " +
              short_number(observer_.median_dt()) + " s)" +
+             (after_left_out ? std::string(" across rows left out") : std::string()) +
              (observer_.last_gap_mismatched()
                   ? ": joint " + std::to_string(observer_.mismatch_joint() + 1) +
                         "'s position moved " + short_number(observer_.mismatch()) +
@@ -175,19 +222,166 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       case SampleStatus::ok:
         break;
     }
-    std::copy(row, row + width_in, row_out.begin());
-    for (int j = 0; j < n; ++j) row_out[r_out_[j]] = r[j];
-    if (friction) {
-      for (int j = 0; j < n; ++j) {
-        row_out[tau_f_out_[j]] = tau_f[j];
-        row_out[mu_out_[j]] = mu[j];
+    if (status != SampleStatus::invalid) {
+      // The signal check learns its tolerance from plain intervals between good rows only.
+      if (status == SampleStatus::ok && have_good && !after_left_out)
+        check.learn(good_t, good_q.data(), good_dq.data(), t, q.data(), dq.data());
+      good_t = t;
+      good_q = q;
+      good_dq = dq;
+      have_good = true;
+      held_r = r;
+      if (friction) {
+        held_tau_f = tau_f;
+        held_mu = mu;
       }
     }
-    if (restart_out_) {
-      row_out[*restart_out_] = status == SampleStatus::ok || status == SampleStatus::bridged ? 0.0 : 1.0;
+    write(row, status != SampleStatus::ok && status != SampleStatus::bridged, false);
+  };
+
+  // Writes a row left out: its input as read, the residual held at its last value.
+  auto write_left_out = [&](const Held& h) {
+    r = held_r;
+    if (friction) {
+      tau_f = held_tau_f;
+      mu = held_mu;
     }
-    out.row(row_out.data());
-    ++summary.rows_written;
+    write(h.values.data(), false, true);
+    ++summary.flagged_rows;
+  };
+
+  // Reports one stretch of rows left out (the first few) and counts it.
+  auto report_left_out = [&](const Held& first, std::size_t count, const char* ending) {
+    ++summary.flagged_stretches;
+    const double t_first = first.values[t_index_];
+    if (summary.flagged_times.size() < kFlaggedTimes) summary.flagged_times.push_back(t_first);
+    if (first_flagged.empty()) first_flagged = first.where;
+    if (summary.flagged_stretches <= kReportedPerKind)
+      warn(first.where + ": t=" + exact(t_first) + ": " + first.why + ": " +
+                                       std::to_string(count) + " row" + (count == 1 ? "" : "s") +
+                                       " left out, " + ending);
+  };
+
+  // The held rows were a sensor fault: left out; the next row continues from the last good one.
+  auto leave_out_held = [&](const char* ending) {
+    if (held_count == 0) return;
+    report_left_out(held[0], held_count, ending);
+    for (std::size_t k = 0; k < held_count; ++k) write_left_out(held[k]);
+    held_count = 0;
+  };
+
+  // The held rows are taken as real (those beyond the limits excepted), in order.
+  auto release_held = [&](bool confirmed) {
+    bool left_out = false;
+    std::size_t run_start = 0, run_length = 0;
+    for (std::size_t k = 0; k < held_count; ++k) {
+      Held& h = held[k];
+      if (h.impossible) {
+        if (run_length++ == 0) run_start = k;
+        write_left_out(h);
+        left_out = true;
+        continue;
+      }
+      if (run_length) {
+        report_left_out(held[run_start], run_length, "bridged");
+        run_length = 0;
+      }
+      ++(confirmed ? summary.confirmed_rows : summary.unresolved_rows);
+      if (!confirmed && k == 0)
+        warn(h.where + ": t=" + exact(h.values[t_index_]) + ": " + h.why +
+                                         ": for longer than a bridge, taken as they are");
+      process(h.values.data(), false, &h.where, left_out);
+      left_out = false;
+    }
+    if (run_length) report_left_out(held[run_start], run_length, "bridged");
+    held_count = 0;
+  };
+
+  auto hold = [&](const double* row, bool impossible, std::string why) {
+    Held& h = held[held_count++];
+    h.values.assign(row, row + width_in);
+    h.where = in_.where();
+    h.why = std::move(why);
+    h.impossible = impossible;
+  };
+
+  // One row through the signal check: written now, or held back until a later row decides.
+  auto check_row = [&](const double* row, bool duplicate) {
+    unpack(row);
+    bool finite = std::isfinite(t);
+    for (int j = 0; j < n; ++j) finite = finite && std::isfinite(q[j]) && std::isfinite(dq[j]) && std::isfinite(tau[j]);
+    const double t_reference = held_count ? held[held_count - 1].values[t_index_] : good_t;
+    if (finite && held_count && !(t > t_reference)) {
+      // A time fault after a held row (its duplicate, say): skipped as the observer skips one
+      // after a row it has taken, the held rows still waiting.
+      skip(duplicate, in_.where(),
+           std::string(duplicate ? "duplicate row" : "time does not increase") + ": t=" + exact(t) + " after t=" +
+               exact(t_reference));
+      return;
+    }
+    if (!finite || (have_good && !(t > t_reference))) {
+      // Not the check's to judge (the observer skips or restarts); held rows stay unconfirmed.
+      leave_out_held("bridged");
+      process(row, duplicate, nullptr, false);
+      return;
+    }
+    std::string why;
+    const bool beyond = check.beyond_limits(q.data(), dq.data(), tau.data(), &why) >= 0;
+    if (!beyond) limits_suspended = false;
+    const bool impossible = beyond && !limits_suspended;
+    const double typical_dt = observer_.median_dt();
+    // A row after lost samples is the observer's to judge (its bridge rule, TIMING FAULTS):
+    // the disagreement test applies between rows one step apart, or across rows held back.
+    const bool after_gap = held_count == 0 && observer_.is_gap(t);
+    auto agrees_with_good = [&](std::string* reason) {
+      return !have_good || after_gap ||
+             !check.disagree(good_t, good_q.data(), good_dq.data(), t, q.data(), dq.data(), typical_dt, reason);
+    };
+    auto agrees_with_last_held = [&] {
+      const std::vector<double>& last = held[held_count - 1].values;
+      for (int j = 0; j < n; ++j) {
+        held_q[j] = last[q_index_[j]];
+        held_dq[j] = last[dq_index_[j]];
+      }
+      return !check.disagree(last[t_index_], held_q.data(), held_dq.data(), t, q.data(), dq.data(), typical_dt,
+                             nullptr);
+    };
+    if (held_count == 0) {
+      if (!impossible && agrees_with_good(&why)) {
+        process(row, duplicate, nullptr, false);
+        return;
+      }
+      hold(row, impossible, why);
+    } else if (!impossible && !held[held_count - 1].impossible && agrees_with_last_held()) {
+      // The held rows were real: the sensors saw a fast change together. Asked first, so that
+      // a row that agrees with both (an impact within one interval, which the trapezoid over
+      // the longer interval may also pass) is observed, not left out.
+      release_held(true);
+      process(row, duplicate, nullptr, false);
+      return;
+    } else if (!impossible && agrees_with_good(nullptr)) {
+      leave_out_held("bridged");
+      process(row, duplicate, nullptr, true);
+      return;
+    } else {
+      hold(row, impossible, why);
+    }
+    // A stretch longer than a bridge cannot be bridged: taken as it is.
+    const double span = t - good_t;
+    if (held_count == kMaxHeld || !have_good ||
+        !(span <= options_.observer.gap_factor * observer_.median_dt())) {
+      bool all_impossible = true;
+      for (std::size_t k = 0; k < held_count; ++k) all_impossible = all_impossible && held[k].impossible;
+      if (all_impossible && held_count) {
+        limits_suspended = true;
+        warn(held[0].where + ": t=" + exact(held[0].values[t_index_]) + ": " +
+                                         held[0].why + ": for longer than a bridge; the limits are not applied "
+                                         "again until a row is within them");
+        leave_out_held("the observer goes on from them");
+      } else {
+        release_held(false);
+      }
+    }
   };
 
   while (const double* row = in_.next()) {
@@ -200,13 +394,17 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     have_previous_row = true;
     if (in_.time_mark() == stream::TimeMark::clock_step) {
       // The stream's time policy kept this row as the start of a new time line.
+      leave_out_held("bridged");
       ++summary.restarts;
       warn(in_.where() + ": observer restarted at t=" + exact(row[t_index_]) +
            ": the clock stepped back from t=" + exact(observer_.last_time()));
       observer_.restart_clock();
+      have_good = false;
     }
-    process(row, duplicate, nullptr);
+    if (checking) check_row(row, duplicate);
+    else process(row, duplicate, nullptr, false);
   }
+  leave_out_held("at the end of the stream");
   if (summary.rejected_rows) {
     // Only without the reader's time policy (which reports its own): rows the observer refused.
     std::string text = std::to_string(summary.rejected_rows) + " row" +
@@ -224,6 +422,15 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   if (summary.bridged_gaps) {
     warn(std::to_string(summary.bridged_gaps) + " gap" + (summary.bridged_gaps == 1 ? "" : "s") +
          " bridged without a restart (longest " + short_number(summary.longest_bridge) + " s)");
+  }
+  if (summary.flagged_rows) {
+    std::string times;
+    for (double when : summary.flagged_times) times += (times.empty() ? "" : ", ") + short_number(when);
+    if (summary.flagged_stretches > summary.flagged_times.size()) times += ", ...";
+    warn(std::to_string(summary.flagged_rows) + " row" + (summary.flagged_rows == 1 ? "" : "s") +
+         " left out because their signals disagree, in " + std::to_string(summary.flagged_stretches) +
+         " stretch" + (summary.flagged_stretches == 1 ? "" : "es") + " (first at " + first_flagged +
+         "; t=" + times + ")");
   }
   if (!bad_run_start.empty()) {
     warn(located(in_.name(), 0, "the stream ends with rows with nan or inf from " + bad_run_start));

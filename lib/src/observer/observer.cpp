@@ -44,6 +44,7 @@ bool ObserverOptions::IsValid(std::string* why) const {
     return fail(why, "gap_factor must be a finite number > 1");
   if (!std::isfinite(bridge_tolerance) || !(bridge_tolerance >= 0))
     return fail(why, "bridge_tolerance must be a finite number >= 0");
+  if (!signals.IsValid(why)) return false;
   const std::size_t n = std::max({k1.size(), k2.size(), k3.size()});
   for (std::size_t j = 0; j < n; ++j) {
     Gains g{k1[std::min(j, k1.size() - 1)], order == 2 ? k2[std::min(j, k2.size() - 1)] : 0.0,
@@ -78,7 +79,7 @@ ObserverOptions observer_options_from_json(const nlohmann::json& section,
                                            std::vector<std::string>* warnings) {
   if (!section.is_object()) error("the section is not an object");
   static const std::set<std::string> known = {"order", "k1", "k2", "k3", "cutoff_hz", "gap_factor",
-                                                "bridge_tolerance"};
+                                                "bridge_tolerance", "signal_check", "signal_sigmas", "limit_factor"};
   for (const auto& item : section.items())
     if (!known.count(item.key()) && warnings) warnings->push_back("observer: unknown key '" + item.key() + "'");
   ObserverOptions options;
@@ -104,6 +105,18 @@ ObserverOptions observer_options_from_json(const nlohmann::json& section,
   if (const auto it = section.find("bridge_tolerance"); it != section.end()) {
     if (!it->is_number()) error("'bridge_tolerance' must be a number");
     options.bridge_tolerance = it->get<double>();
+  }
+  if (const auto it = section.find("signal_check"); it != section.end()) {
+    if (!it->is_boolean()) error("'signal_check' must be true or false");
+    options.signals.enabled = it->get<bool>();
+  }
+  if (const auto it = section.find("signal_sigmas"); it != section.end()) {
+    if (!it->is_number()) error("'signal_sigmas' must be a number");
+    options.signals.sigmas = it->get<double>();
+  }
+  if (const auto it = section.find("limit_factor"); it != section.end()) {
+    if (!it->is_number()) error("'limit_factor' must be a number");
+    options.signals.limit_factor = it->get<double>();
   }
   std::string why;
   if (!options.IsValid(&why)) error(why);

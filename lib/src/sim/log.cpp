@@ -130,6 +130,13 @@ RunSummary write_simulated_log(const SimulationSetup& setup, bool ignore_frictio
     truth_row(c, truth_values);
     truth->row(truth_values.data());
   };
+  // The glitches are sensor faults, not contacts: comments of the truth table, in time order
+  // with its rows, so that mo-eval reads the contacts alone and a test finds the glitches.
+  callbacks.glitch = [&](double t, const Glitch& g) {
+    if (!truth) return;
+    truth->comment(" glitch: t=" + core::exact(t) + " kind=" + glitch_kind_name(g.kind) +
+                   (g.joint >= 0 ? " joint=" + std::to_string(g.joint + 1) : std::string(" joint=all")));
+  };
   callbacks.progress = progress;
   const RunSummary summary = simulate(setup.model, friction, setup.section.home, run, seed, callbacks);
   if (progress_done) progress_done();

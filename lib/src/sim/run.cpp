@@ -17,6 +17,7 @@ namespace {
 constexpr std::uint64_t kTrajectoryStream = 1;
 constexpr std::uint64_t kContactPlanStream = 2;
 constexpr std::uint64_t kSensorStream = 3;
+constexpr std::uint64_t kGlitchStream = 4;
 // Contacts start at least this long after the entry blend (the observer's start-up).
 constexpr double kContactGuard = 1.0;
 
@@ -91,7 +92,35 @@ bool RunOptions::IsValid(std::string* why) const {
   if (!controller.IsValid(&inner)) return bad(inner);
   if (!sensors.IsValid(&inner)) return bad("sensors: " + inner);
   if (!contacts.IsValid(&inner)) return bad("collisions: " + inner);
+  if (!glitches.IsValid(&inner)) return bad(inner);
   return true;
+}
+
+std::vector<Glitch> plan_glitches(const GlitchOptions& options, int nq, double begin, double end,
+                                  const std::vector<Contact>& contacts, std::uint64_t seed) {
+  std::vector<Glitch> out;
+  if (options.count <= 0 || !(end > begin)) return out;
+  Random random(seed);
+  auto clear = [&](double t) {
+    for (const Contact& c : contacts)
+      if (t > c.t_onset - kGlitchClearance && t < c.t_end + kGlitchClearance) return false;
+    for (const Glitch& g : out)
+      if (std::fabs(t - g.t) < kGlitchClearance) return false;
+    return true;
+  };
+  for (int k = 0; k < options.count; ++k) {
+    Glitch glitch;
+    glitch.kind = options.kinds[static_cast<std::size_t>(k) % options.kinds.size()];
+    glitch.joint = glitch.kind == GlitchKind::stop ? -1 : random.integer(0, nq - 1);
+    bool placed = false;
+    for (int attempt = 0; attempt < 1000 && !placed; ++attempt) {
+      glitch.t = random.uniform(begin, end);
+      placed = clear(glitch.t);
+    }
+    if (placed) out.push_back(glitch);
+  }
+  std::sort(out.begin(), out.end(), [](const Glitch& a, const Glitch& b) { return a.t < b.t; });
+  return out;
 }
 
 RunSummary simulate(const model::Model& model, const friction::FrictionModel* friction,
@@ -112,6 +141,13 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
                        std::min(kContactGuard, 0.1 * (trajectory.steady_end() - trajectory.steady_begin()));
   const std::vector<Contact> contacts =
       plan_contacts(options.contacts, model, begin, trajectory.steady_end(), derive_seed(seed, kContactPlanStream));
+
+  const std::vector<Glitch> glitches = plan_glitches(options.glitches, n, begin, trajectory.steady_end(), contacts,
+                                                     derive_seed(seed, kGlitchStream));
+  if (static_cast<int>(glitches.size()) < options.glitches.count)
+    warn("room for " + std::to_string(glitches.size()) + " of " + std::to_string(options.glitches.count) +
+         " glitches " + short_number(kGlitchClearance) + " s away from the contacts and each other; lengthen --duration");
+  std::size_t next_glitch = 0;
 
   Plant plant(model, friction, options.integrator);
   Controller controller(model, options.controller);
@@ -193,8 +229,15 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
       if (sensors.next_dropped()) {
         ++summary.dropped;
       } else {
+        const bool glitched = next_glitch < glitches.size() && t >= glitches[next_glitch].t;
+        if (glitched) apply_glitch(glitches[next_glitch], options.glitches, plant.dq(), sample.q, sample.dq, sample.i);
         ++summary.samples;
         if (callbacks.sample) callbacks.sample(sample);
+        if (glitched) {
+          ++summary.glitches;
+          if (callbacks.glitch) callbacks.glitch(t, glitches[next_glitch]);
+          ++next_glitch;
+        }
       }
       ++k;
       sample_step = k * substeps <= total_steps ? schedule(k) : -1;

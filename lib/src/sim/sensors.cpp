@@ -18,6 +18,58 @@ bool fail(std::string* why, const std::string& message) {
 }
 }  // namespace
 
+const char* glitch_kind_name(GlitchKind kind) {
+  switch (kind) {
+    case GlitchKind::stop: return "stop";
+    case GlitchKind::velocity: return "velocity";
+    case GlitchKind::encoder: return "encoder";
+    case GlitchKind::current: return "current";
+  }
+  return "?";
+}
+
+bool parse_glitch_kind(const std::string& name, GlitchKind* kind) {
+  for (GlitchKind k : {GlitchKind::stop, GlitchKind::velocity, GlitchKind::encoder, GlitchKind::current}) {
+    if (name == glitch_kind_name(k)) {
+      *kind = k;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool GlitchOptions::IsValid(std::string* why) const {
+  if (count < 0) return fail(why, "glitch count must be >= 0");
+  if (count > 0 && kinds.empty()) return fail(why, "no glitch kinds");
+  if (!(std::isfinite(velocity_jump) && velocity_jump > 0)) return fail(why, "glitch velocity jump must be > 0");
+  if (!std::isfinite(current)) return fail(why, "glitch current must be finite");
+  if (!std::isfinite(position)) return fail(why, "glitch position must be finite");
+  return true;
+}
+
+void apply_glitch(const Glitch& glitch, const GlitchOptions& options, const Eigen::VectorXd& dq_true,
+                  Eigen::VectorXd& q, Eigen::VectorXd& dq, Eigen::VectorXd& i) {
+  // Against the motion: -1 for a joint moving forward (and at rest).
+  auto against = [&](Eigen::Index j) { return dq_true[j] > 0 ? -1.0 : 1.0; };
+  switch (glitch.kind) {
+    case GlitchKind::stop:
+      for (Eigen::Index j = 0; j < dq.size(); ++j) {
+        dq[j] = against(j) * (std::fabs(dq[j]) + options.velocity_jump);
+        i[j] = against(j) * options.current;
+      }
+      break;
+    case GlitchKind::velocity:
+      dq[glitch.joint] += against(glitch.joint) * options.velocity_jump;
+      break;
+    case GlitchKind::encoder:
+      q[glitch.joint] = options.position;
+      break;
+    case GlitchKind::current:
+      i[glitch.joint] += options.current;
+      break;
+  }
+}
+
 const char* velocity_source_name(VelocitySource source) {
   return source == VelocitySource::measured ? "measured" : "difference";
 }

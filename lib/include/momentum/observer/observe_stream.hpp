@@ -29,6 +29,9 @@ struct ObserveStreamOptions {
   // Append a column `restart`: 1 on rows where r does not continue from the previous row
   // (first row, restart after a gap or after NaN rows, and the NaN rows themselves), else 0.
   bool restart_column = false;
+  // Append a column `flagged`: 1 on rows left out because their signals disagree or are beyond
+  // the physical limits (see run()), else 0.
+  bool flag_column = false;
   // Stop at the first row whose time does not increase (Reader::reject_row) instead of
   // skipping it (mo-observe --strict).
   bool strict = false;
@@ -46,6 +49,12 @@ struct ObserveStreamSummary {
   std::uint64_t bridged_gaps = 0;   // gaps integrated across without a restart
   double longest_bridge = 0;        // the longest of them, s
   double median_dt = 0;             // running median dt at the end, s
+  // Rows whose signals disagree (signal_check.hpp), see StreamObserver::run:
+  std::uint64_t flagged_rows = 0;       // left out and bridged (written with the held residual)
+  std::uint64_t flagged_stretches = 0;  //   in this many stretches of consecutive rows
+  std::uint64_t confirmed_rows = 0;     // suspect at first, then confirmed by the rows after
+  std::uint64_t unresolved_rows = 0;    // suspect for longer than a bridge: taken as they are
+  std::vector<double> flagged_times;    // t of the first row of the first 20 stretches, s
 };
 
 // The stream's columns bound to an observer. Construct it before opening the output, so that
@@ -70,7 +79,21 @@ class StreamObserver {
   // through momentum::warn with their location, and the observer continues from the last good
   // row as if the row had not been there; in strict mode it is rejected through
   // Reader::reject_row (an error) when options.strict. At the end, one warning sums up the skipped rows and one the
-  // bridged gaps. Throws what the reader and writer throw.
+  // bridged gaps.
+  //
+  // Rows whose signals disagree (options.observer.signals, signal_check.hpp): a row beyond
+  // the physical limits, or whose positions and velocities disagree with the last good row, is
+  // held back (not yet written) until a later row decides: when a later row agrees with the
+  // last held row (beyond no limit), they were real (a fast change the sensors saw together):
+  // they are processed in order, exactly as without the check, so a real impact loses nothing
+  // but the wait. Otherwise, when a later row agrees with the last good row, the held rows were
+  // a sensor fault: they are written with the residual held at its last value (and `flagged`
+  // = 1), and the observer integrates from the last good row across them, as across a gap. A stretch longer than
+  // a bridge (gap_factor median steps) is taken as it is (rows beyond the limits excepted,
+  // and then the limits are not applied again until a row is within them), and one that the
+  // stream ends or a bad row interrupts is left out. Each stretch left out is reported
+  // through momentum::warn (the first few) with its location, time and reason; one warning at
+  // the end sums them up with their times. Throws what the reader and writer throw.
   ObserveStreamSummary run(stream::Writer& out);
 
  private:
@@ -84,6 +107,7 @@ class StreamObserver {
   std::vector<double> torque_scale_;
   std::vector<std::size_t> r_out_, tau_f_out_, mu_out_;
   std::optional<std::size_t> restart_out_;
+  std::optional<std::size_t> flagged_out_;
 };
 
 // StreamObserver(in, model, options).run(out).

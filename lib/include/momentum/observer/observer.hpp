@@ -27,6 +27,7 @@
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/observer/filter.hpp"
+#include "momentum/observer/signal_check.hpp"
 
 namespace momentum::observer {
 
@@ -66,10 +67,13 @@ struct ObserverOptions {
   // a prismatic joint).
   double gap_factor = 5.0;
   double bridge_tolerance = 1e-3;
+  // Rows whose signals disagree (signal_check.hpp): left out and bridged by the stream
+  // observer (observe_stream.hpp), within the same gap_factor.
+  SignalCheckOptions signals;
 
   // False (with the reason in `why`, when non-null) for an order other than 1 or 2, empty
-  // lists, invalid gains (see Gains::IsValid), gap_factor <= 1 or a negative or non-finite
-  // bridge_tolerance.
+  // lists, invalid gains (see Gains::IsValid), gap_factor <= 1, a negative or non-finite
+  // bridge_tolerance, or invalid signal check options.
   bool IsValid(std::string* why) const;
 
   // The gains of each of `joints` joints. Throws momentum::Error ("observer: k1 has 3 values
@@ -79,7 +83,7 @@ struct ObserverOptions {
 
 // Reads the profile's "observer" section:
 //   {"order": 2, "k1": 50 or [..per joint..], "k2": 5, "k3": 0, "cutoff_hz": 8, "gap_factor": 5,
-//    "bridge_tolerance": 0.001}
+//    "bridge_tolerance": 0.001, "signal_check": true, "signal_sigmas": 10, "limit_factor": 2}
 // "cutoff_hz" (number or list) sets k1 = 2 pi cutoff_hz; giving both k1 and cutoff_hz is an
 // error. Missing keys keep ObserverOptions' defaults. Throws momentum::Error ("observer: ...";
 // the caller adds the file name) for wrong types or invalid values. Unknown keys are listed in

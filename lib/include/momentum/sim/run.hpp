@@ -53,9 +53,18 @@ struct RunOptions {
   ControllerOptions controller;
   SensorOptions sensors;
   ContactOptions contacts;
+  GlitchOptions glitches;
 
   bool IsValid(std::string* why) const;
 };
+
+// The glitches of a run: options.count rows at uniformly random times in [begin, end], each at
+// least kGlitchClearance s from every contact (from its onset to its end) and from the other
+// glitches, kinds in turn, the joint of a one-joint kind at random. Sorted by time. Fewer when
+// the run has no room for them (the caller can compare the size).
+std::vector<Glitch> plan_glitches(const GlitchOptions& options, int nq, double begin, double end,
+                                  const std::vector<Contact>& contacts, std::uint64_t seed);
+constexpr double kGlitchClearance = 2.5;
 
 // One output sample. The vectors are nq long.
 struct Sample {
@@ -77,6 +86,7 @@ struct ContactTruth {
 struct RunSummary {
   std::uint64_t samples = 0;        // written
   std::uint64_t dropped = 0;        // lost by --drop-rate
+  std::uint64_t glitches = 0;       // glitches written
   std::uint64_t steps = 0;          // internal steps
   int contacts = 0;
   double duration = 0;              // s
@@ -88,6 +98,7 @@ struct RunCallbacks {
   std::function<void()> start;                       // once set up and validated, before any sample
   std::function<void(const Sample&)> sample;         // every written sample, in time order
   std::function<void(const ContactTruth&)> contact;  // every contact, when it has ended
+  std::function<void(double t, const Glitch&)> glitch;  // every glitch written, t of its row
   std::function<void(double t)> progress;            // now and then with the simulated time
 };
 

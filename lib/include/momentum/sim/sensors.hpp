@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -44,6 +45,42 @@ struct SensorOptions {
 
   bool IsValid(std::string* why) const;
 };
+
+// Sensor faults at single rows, injected into what the drives report (the arm's motion is not
+// touched), as seen in real logs (momentum(7), "Rows whose signals disagree"):
+enum class GlitchKind {
+  stop,      // the row a trajectory ends on in some real logs: every velocity flips its sign and
+             // jumps by velocity_jump against the motion, every current reads `current` A
+             // against the motion, the positions do not move; the next row is normal again
+  velocity,  // one joint's velocity jumps by velocity_jump for one row
+  encoder,   // one joint's position reads `position` rad for one row (an encoder word gone bad)
+  current,   // one joint's current reads `current` A more for one row; q and dq agree
+};
+// "stop", "velocity", "encoder", "current".
+const char* glitch_kind_name(GlitchKind kind);
+bool parse_glitch_kind(const std::string& name, GlitchKind* kind);
+
+struct GlitchOptions {
+  int count = 0;  // glitches at random rows of the steady part, away from contacts (>= 0)
+  std::vector<GlitchKind> kinds{GlitchKind::stop, GlitchKind::velocity, GlitchKind::encoder};  // in turn
+  double velocity_jump = 0.09;  // rad/s (> 0)
+  double current = 5.0;         // A (finite)
+  double position = 1e6;        // rad (finite)
+
+  bool IsValid(std::string* why) const;
+};
+
+// One planned glitch: the first written row at or after t gets it.
+struct Glitch {
+  double t = 0;  // s
+  GlitchKind kind = GlitchKind::stop;
+  int joint = -1;  // 0-based; -1: every joint (stop)
+};
+
+// Applies `glitch` to a reported sample (q, dq, i of nq joints; dq_true: the true velocity,
+// whose sign says which way the arm moves).
+void apply_glitch(const Glitch& glitch, const GlitchOptions& options, const Eigen::VectorXd& dq_true,
+                  Eigen::VectorXd& q, Eigen::VectorXd& dq, Eigen::VectorXd& i);
 
 class Sensors {
  public:

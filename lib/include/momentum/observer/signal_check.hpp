@@ -1,0 +1,103 @@
+// Rows whose signals disagree: the redundancy of q, dq and tau_m, tested before the residual
+// is formed (momentum(7), "Rows whose signals disagree").
+//
+// Positions and velocities come from the same joint: between two rows a and b (dt = t_b - t_a)
+// the position change must match the trapezoidal integral of the velocity,
+//
+//   e = q_b - q_a - dt (dq_a + dq_b) / 2,
+//
+// up to the sensors' own noise and quantisation. A contact changes the currents and, through
+// the dynamics, both q and dq together; it does not make them disagree. A velocity that jumps
+// for one row while the positions do not move, or an encoder word that reads 1e6 rad, does.
+//
+// The tolerance comes from the data, per joint: a running robust scale of e over the last
+// kWindow accepted intervals (1.4826 times the median of |e|, the standard deviation for normal
+// noise), floored by the quantisation noise of the signals themselves (their steps: the smallest
+// nonzero second differences of position and velocity seen), times `sigmas`; it grows in proportion with the interval
+// when rows in between are left out. Besides, a value beyond the URDF's limits by more than
+// `limit_factor` (positions about the middle of their range, velocities and efforts about 0),
+// or a position change faster than limit_factor times the velocity limit, cannot be physical.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "momentum/core/statistics.hpp"
+#include "momentum/model/model.hpp"
+
+namespace momentum::observer {
+
+struct SignalCheckOptions {
+  // Off: every row is taken at its word (mo-observe --no-signal-check).
+  bool enabled = true;
+  // Tolerance of the position-velocity disagreement, in robust standard deviations of its own
+  // running distribution (> 0). Real velocity signals are filtered and lag the positions a
+  // little, so the distribution has heavier tails than a normal one: 10 leaves the ordinary
+  // tail alone (on the UR10e development logs no row is excluded) and still sees a velocity
+  // that jumps by a few hundredths of a rad/s for one row.
+  double sigmas = 10.0;
+  // Physical bounds: a velocity or effort beyond limit_factor times the URDF's limit, or a
+  // position beyond limit_factor times the half range about the middle of the limits (>= 1).
+  // Drives deliver short peaks above the rated effort the URDF states; twice it is beyond them.
+  double limit_factor = 2.0;
+
+  // False (with the reason in `why`, when non-null) for sigmas <= 0 or limit_factor < 1.
+  bool IsValid(std::string* why) const;
+};
+
+// Per-joint tolerances learnt from the stream, and the tests. Constant memory.
+class SignalCheck {
+ public:
+  // Accepted intervals in the running window of |e|.
+  static constexpr int kWindow = 128;
+  // Intervals needed before the disagreement test applies (the limits apply from the start).
+  static constexpr int kWarmUp = 16;
+
+  // `model` must outlive the check (its joint limits are read).
+  SignalCheck(const model::Model& model, const SignalCheckOptions& options);
+
+  const SignalCheckOptions& options() const { return options_; }
+  bool ready() const { return intervals_ >= kWarmUp; }
+
+  // The first joint (0-based) with a value beyond its physical limits, or -1; what is wrong
+  // (e.g. "joint 2's position 1e+06 rad is beyond its limits -6.28..6.28 rad") in `why`.
+  // q, dq, tau: nq values each (rad, rad/s, Nm; m, m/s, N for a prismatic joint).
+  int beyond_limits(const double* q, const double* dq, const double* tau, std::string* why) const;
+
+  // Whether the rows a and b (t_b > t_a) disagree: some joint's |e| beyond its tolerance for
+  // the interval (`typical_dt`: the stream's median step, s, > 0), or a position change faster
+  // than the velocity limit allows. Before ready(), only the velocity limit is tested. When
+  // they disagree and `why` is non-null, it says on which joint and by how much.
+  bool disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
+                const double* dq_b, double typical_dt, std::string* why) const;
+
+  // Learns from an accepted interval a -> b: its |e| per joint enter the running scale, and,
+  // when it continues the last interval learnt, the second differences of position and
+  // velocity the quantisation estimate.
+  void learn(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
+             const double* dq_b);
+
+  // Tolerance of joint j (0-based) over an interval of `interval` s, rad (m): +inf before ready().
+  double tolerance(int j, double interval, double typical_dt) const;
+
+ private:
+  struct Joint {
+    core::RunningMedian<kWindow> abs_error;
+    // Quantisation steps: the smallest nonzero second difference seen (of consecutive
+    // intervals), which is a multiple of the step for a quantised signal and as small as the
+    // motion's own curvature for a fine one; 0 none yet. rad, rad/s.
+    double q_quantum = 0;
+    double dq_quantum = 0;
+    double last_q_step = 0, last_dq_step = 0;  // of the last interval learnt
+    double lower = 0, upper = 0, velocity = 0, effort = 0;  // bounds with limit_factor
+    double velocity_limit = 0;                              // the URDF's, times limit_factor
+  };
+  SignalCheckOptions options_;
+  std::vector<Joint> joints_;
+  std::uint64_t intervals_ = 0;
+  double last_t_ = 0;  // end of the last interval learnt: the next one continues it when equal
+  int since_update_ = 0;
+};
+
+}  // namespace momentum::observer

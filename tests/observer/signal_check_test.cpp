@@ -1,0 +1,275 @@
+// Rows whose signals disagree: sensor glitches injected into the UR5 reference trajectory
+// (Pinocchio, tau_m = M ddq + C dq + g + tau_dist, q and dq exact) are left out and bridged,
+// so the residual matches the one of the clean log; a real impact (a torque step, with q and
+// dq consistent) is not touched: bit for bit the residual without the check.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "momentum/model/model.hpp"
+#include "momentum/model/profile.hpp"
+#include "momentum/observer/observe_stream.hpp"
+#include "momentum/observer/signal_check.hpp"
+#include "momentum/stream/reader.hpp"
+#include "momentum/stream/writer.hpp"
+
+namespace mo = momentum::observer;
+namespace mm = momentum::model;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Table {
+  std::vector<std::string> header;
+  std::vector<std::vector<double>> rows;
+  int column(const std::string& name) const {
+    for (std::size_t i = 0; i < header.size(); ++i)
+      if (header[i] == name) return static_cast<int>(i);
+    return -1;
+  }
+};
+
+Table read_csv(const std::string& path) {
+  std::ifstream in(path);
+  Table table;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::stringstream fields(line);
+    std::string field;
+    if (table.header.empty()) {
+      while (std::getline(fields, field, ',')) table.header.push_back(field);
+      continue;
+    }
+    std::vector<double> row;
+    while (std::getline(fields, field, ',')) row.push_back(std::stod(field));
+    table.rows.push_back(row);
+  }
+  return table;
+}
+
+void write_csv(const std::string& path, const Table& table) {
+  std::ofstream out(path);
+  for (std::size_t i = 0; i < table.header.size(); ++i) out << (i ? "," : "") << table.header[i];
+  out << "\n";
+  out.precision(17);
+  for (const auto& row : table.rows) {
+    for (std::size_t i = 0; i < row.size(); ++i) out << (i ? "," : "") << row[i];
+    out << "\n";
+  }
+}
+
+const mm::Model& ur5() {
+  static const mm::Model model = mm::build_model(mm::load_profile(std::string(MOMENTUM_TEST_DATA) + "/ur5.json"));
+  return model;
+}
+
+// The UR5 reference trajectory with its disturbance columns dropped (1 kHz, 8001 rows).
+Table reference() {
+  Table full = read_csv(std::string(MOMENTUM_TEST_DATA) + "/ur5.traj.csv");
+  Table table;
+  table.header.assign(full.header.begin(), full.header.begin() + 19);
+  for (const auto& row : full.rows) table.rows.emplace_back(row.begin(), row.begin() + 19);
+  return table;
+}
+
+// The table through StreamObserver (first order, K1 = 50) with a `flagged` column.
+Table observe(const Table& in, bool check, mo::ObserveStreamSummary* summary = nullptr) {
+  const fs::path dir = fs::temp_directory_path() / ("signal_check_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  write_csv((dir / "in.csv").string(), in);
+  mo::ObserveStreamOptions options;
+  options.observer.signals.enabled = check;
+  options.flag_column = true;
+  {
+    auto reader = momentum::stream::Reader::open((dir / "in.csv").string());
+    mo::StreamObserver observer(*reader, ur5(), options);
+    auto writer = momentum::stream::Writer::open((dir / "out.csv").string());
+    const mo::ObserveStreamSummary s = observer.run(*writer);
+    writer->close();
+    if (summary) *summary = s;
+  }
+  Table out = read_csv((dir / "out.csv").string());
+  fs::remove_all(dir);
+  return out;
+}
+
+constexpr int kJoints = 6;
+int q_col(int j) { return 1 + j; }
+int dq_col(int j) { return 1 + kJoints + j; }
+int tau_col(int j) { return 1 + 2 * kJoints + j; }
+
+double largest_difference(const Table& a, const Table& b, std::size_t from, std::size_t to) {
+  const int r1 = a.column("r1");
+  double worst = 0;
+  for (std::size_t k = from; k < to; ++k)
+    for (int j = 0; j < kJoints; ++j) worst = std::max(worst, std::fabs(a.rows[k][r1 + j] - b.rows[k][r1 + j]));
+  return worst;
+}
+
+}  // namespace
+
+TEST(SignalCheck, GlitchesAreLeftOutAndBridged) {
+  const Table clean = reference();
+  Table glitched = clean;
+  auto against = [&](std::size_t k, int j) { return clean.rows[k][dq_col(j)] > 0 ? -1.0 : 1.0; };
+  // A stop row as in the real logs: every velocity flips and jumps by 0.09 rad/s against the
+  // motion, 50 Nm against it on every joint, positions as they were.
+  const std::size_t stop = 2000;
+  for (int j = 0; j < kJoints; ++j) {
+    glitched.rows[stop][dq_col(j)] = against(stop, j) * (std::fabs(clean.rows[stop][dq_col(j)]) + 0.09);
+    glitched.rows[stop][tau_col(j)] += against(stop, j) * 50;
+  }
+  const std::size_t encoder = 4000, velocity = 5500, pair = 6800;
+  glitched.rows[encoder][q_col(1)] = 1e6;  // issue 26: one row with q2 = 1e6 rad
+  glitched.rows[velocity][dq_col(2)] += 0.09;
+  glitched.rows[pair][dq_col(0)] -= 0.2;  // two rows in a row
+  glitched.rows[pair + 1][dq_col(0)] -= 0.2;
+  const std::vector<std::size_t> faults{stop, encoder, velocity, pair, pair + 1};
+
+  mo::ObserveStreamSummary summary;
+  const Table checked = observe(glitched, true, &summary);
+  const Table unchecked = observe(glitched, false);
+  const Table reference_r = observe(clean, false);
+  ASSERT_EQ(checked.rows.size(), clean.rows.size());
+  const int flagged = checked.column("flagged");
+  std::vector<std::size_t> seen;
+  for (std::size_t k = 0; k < checked.rows.size(); ++k)
+    if (checked.rows[k][flagged] == 1) seen.push_back(k);
+  EXPECT_EQ(seen, faults);
+  EXPECT_EQ(summary.flagged_rows, 5u);
+  EXPECT_EQ(summary.flagged_stretches, 4u);
+  EXPECT_EQ(summary.restarts, 0u);
+  EXPECT_EQ(summary.bridged_gaps, 0u);
+  // The input columns are written as read, the glitch included.
+  EXPECT_EQ(checked.rows[encoder][q_col(1)], 1e6);
+
+  // Without the check the glitches raise the residual by tens of Nm; with it, the residual is
+  // the clean log's but for the bridging (inputs taken linear over 2 or 3 ms).
+  double range = 0;
+  for (const auto& row : reference_r.rows)
+    for (int j = 0; j < kJoints; ++j) range = std::max(range, std::fabs(row[reference_r.column("r1") + j]));
+  const double without = largest_difference(unchecked, reference_r, 0, clean.rows.size());
+  const double with = largest_difference(checked, reference_r, 0, clean.rows.size());
+  std::printf("largest |r - r_clean|: %.3g Nm without the check, %.3g Nm with it (range %.3g Nm)\n", without,
+              with, range);
+  EXPECT_GT(without, 5.0);
+  EXPECT_LT(with, 0.01 * range);
+}
+
+// A real impact changes the torque, not the agreement of q and dq: the disturbance pulses of
+// the reference trajectory (steps of 3.4 to 8.2 Nm) and a 150 Nm torque step added on joint 2
+// for 0.2 s leave every row in, and the residual is bit for bit the one without the check.
+TEST(SignalCheck, ImpactIsNotHidden) {
+  Table impact = reference();
+  for (std::size_t k = 3000; k < 3200; ++k) impact.rows[k][tau_col(1)] += 150;
+  mo::ObserveStreamSummary summary;
+  const Table checked = observe(impact, true, &summary);
+  const Table unchecked = observe(impact, false);
+  EXPECT_EQ(summary.flagged_rows, 0u);
+  EXPECT_EQ(summary.confirmed_rows, 0u);
+  ASSERT_EQ(checked.rows.size(), unchecked.rows.size());
+  EXPECT_EQ(largest_difference(checked, unchecked, 0, checked.rows.size()), 0.0);
+  EXPECT_GT(std::fabs(checked.rows[3100][checked.column("r2")]), 100.0);
+}
+
+// A fast change that the sensors see together, with the velocity one sample late (as a
+// real drive's filtered velocity is): joint 4 gains 6 mrad over 4 ms, the velocity signal
+// shows the 2 rad/s burst a row after the positions. Rows disagree with the last good row at
+// first and are confirmed by the next ones: nothing is left out, and the residual is bit for
+// bit the one without the check.
+TEST(SignalCheck, ConsistentFastChangeIsConfirmed) {
+  Table table = reference();
+  for (std::size_t k = 4999; k < table.rows.size(); ++k)
+    table.rows[k][q_col(3)] += k == 4999 ? 0.001 : k == 5000 ? 0.003 : k == 5001 ? 0.005 : 0.006;
+  for (std::size_t k : {5000, 5001, 5002}) table.rows[k][dq_col(3)] += 2.0;
+  mo::ObserveStreamSummary summary;
+  const Table checked = observe(table, true, &summary);
+  const Table unchecked = observe(table, false);
+  EXPECT_EQ(summary.flagged_rows, 0u);
+  EXPECT_GT(summary.confirmed_rows, 0u);
+  EXPECT_EQ(largest_difference(checked, unchecked, 0, checked.rows.size()), 0.0);
+}
+
+TEST(SignalCheck, LimitsAndTolerance) {
+  mo::SignalCheckOptions options;
+  mo::SignalCheck check(ur5(), options);
+  const double q[kJoints] = {0, 0, 0, 0, 0, 0}, dq[kJoints] = {0, 0, 0, 0, 0, 0}, tau[kJoints] = {0, 0, 0, 0, 0, 0};
+  std::string why;
+  EXPECT_EQ(check.beyond_limits(q, dq, tau, &why), -1);
+  double bad_q[kJoints] = {0, 1e6, 0, 0, 0, 0};
+  EXPECT_EQ(check.beyond_limits(bad_q, dq, tau, &why), 1);
+  EXPECT_NE(why.find("joint 2's position"), std::string::npos) << why;
+  const double limit = ur5().joints[0].limits.velocity, effort = ur5().joints[2].limits.effort;
+  double fast[kJoints] = {1.9 * limit, 0, 0, 0, 0, 0};
+  EXPECT_EQ(check.beyond_limits(q, fast, tau, &why), -1);
+  fast[0] = 2.1 * limit;
+  EXPECT_EQ(check.beyond_limits(q, fast, tau, &why), 0);
+  double strong[kJoints] = {0, 0, 2.1 * effort, 0, 0, 0};
+  EXPECT_EQ(check.beyond_limits(q, dq, strong, &why), 2);
+  // Before the warm-up only the velocity limit applies; a position that moves faster than
+  // twice the velocity limit disagrees at once.
+  double moved[kJoints] = {0, 0, 0, 0.001, 0, 0};
+  EXPECT_FALSE(check.disagree(0, q, dq, 0.001, moved, dq, 0.001, &why));
+  moved[3] = 0.001 * 2.1 * ur5().joints[3].limits.velocity;
+  EXPECT_TRUE(check.disagree(0, q, dq, 0.001, moved, dq, 0.001, &why));
+  // The tolerance is the running scale: positions with uniform noise in +-1e-5 rad differ by
+  // a triangular |e| of median (1 - 1/sqrt 2) 2e-5 = 5.9e-6 rad, so 10 x 1.4826 x 5.9e-6 =
+  // 8.7e-5 rad; twice that over twice the interval.
+  double t = 0, qa[kJoints] = {}, qb[kJoints] = {};
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> noise(-1e-5, 1e-5);
+  for (int k = 0; k < 200; ++k) {
+    for (int j = 0; j < kJoints; ++j) qb[j] = noise(rng);
+    check.learn(t, qa, dq, t + 0.001, qb, dq);
+    std::copy(qb, qb + kJoints, qa);
+    t += 0.001;
+  }
+  ASSERT_TRUE(check.ready());
+  for (int j = 0; j < kJoints; ++j) {
+    EXPECT_GT(check.tolerance(j, 0.001, 0.001), 3e-4 * 0.15);
+    EXPECT_LT(check.tolerance(j, 0.001, 0.001), 3e-4 * 0.35);
+    EXPECT_DOUBLE_EQ(check.tolerance(j, 0.002, 0.001), 2 * check.tolerance(j, 0.001, 0.001));
+  }
+  options.sigmas = 0;
+  EXPECT_FALSE(options.IsValid(&why));
+  options.sigmas = 10;
+  options.limit_factor = 0.5;
+  EXPECT_FALSE(options.IsValid(&why));
+}
+
+// Fine signals keep a fine tolerance: joints moving at a steady 0.5 rad/s, never at rest,
+// move 0.5 mrad every row, which is no quantisation step (the step estimate comes from second
+// differences, here 0): a velocity 0.2 rad/s off for one row (1e-4 rad of disagreement) is
+// left out. Its exact duplicate right after it is skipped as a duplicate, not observed in its
+// place.
+TEST(SignalCheck, FineSignalsAndADuplicateOfAHeldRow) {
+  Table table;
+  table.header = reference().header;
+  for (int k = 0; k < 300; ++k) {
+    std::vector<double> row(19, 0.0);
+    row[0] = 0.001 * k;
+    for (int j = 0; j < kJoints; ++j) {
+      row[q_col(j)] = 0.1 + 0.5 * row[0];
+      row[dq_col(j)] = 0.5;
+    }
+    table.rows.push_back(row);
+  }
+  table.rows[150][dq_col(0)] += 0.2;
+  table.rows.insert(table.rows.begin() + 151, table.rows[150]);
+  mo::ObserveStreamSummary summary;
+  const Table checked = observe(table, true, &summary);
+  EXPECT_EQ(summary.flagged_rows, 1u);
+  EXPECT_EQ(summary.duplicate_rows, 1u);
+  ASSERT_EQ(checked.rows.size(), 300u);
+  EXPECT_EQ(checked.rows[150][checked.column("flagged")], 1.0);
+}
