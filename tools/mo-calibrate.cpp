@@ -77,8 +77,10 @@ int main(int argc, char** argv) {
   truth_option->needs(classes_option);
 
   return tool.run(argc, argv, [&] {
-    // An in-place update holds the profile's lock from its read to the write.
-    const bool in_place = !tool.profile().empty() && output.empty() && !dry_run;
+    // Every profile write, in place or -o, holds the written file's lock from the read of the
+    // profile to the write, so that two runs writing one file (each its own section) keep both.
+    const std::string destination = output.empty() ? tool.profile() : output;
+    const bool writes = !tool.profile().empty() && !dry_run && !core::is_standard_output(destination);
     std::unique_ptr<core::FileLock> lock;
     if (!classes_path.empty()) {
       if (!tool.inputs().empty()) throw cli::UsageError("--classes learns from events, not from residual streams");
@@ -86,7 +88,7 @@ int main(int argc, char** argv) {
                                             signals_option.empty() ? "mu" : signals_option, tool.strict()};
       std::string why;
       if (!learn.IsValid(&why)) throw cli::UsageError(why);
-      if (in_place) lock = cli::lock_for_update(tool.profile());
+      if (writes) lock = cli::lock_for_update(destination);
       eval::learn_classes(learn);
       return cli::kSuccess;
     }
@@ -109,13 +111,15 @@ int main(int argc, char** argv) {
     } catch (const Error& e) {
       throw cli::UsageError(std::string("--signal: ") + e.what());
     }
-    if (in_place) lock = cli::lock_for_update(tool.profile());
+    if (writes) lock = cli::lock_for_update(destination);
     cli::Progress progress(tool.show_progress());
     streams.progress = [&](const std::string& line) { line.empty() ? progress.finish() : progress.update(line); };
     streams.open_input = [&](const std::string& path) { return tool.open_input(path); };
     std::vector<std::string> inputs = tool.inputs();
     if (inputs.empty()) inputs.push_back("-");
     detect::calibrate_streams(inputs, streams);
+    if (tool.profile().empty() && !dry_run)
+      warn("no profile (-p): the report only, nothing written (give -p to update a profile)");
     return cli::kSuccess;
   });
 }

@@ -73,8 +73,11 @@ int main(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     if (update && !output.empty()) throw cli::UsageError("--update and -o are exclusive");
     const std::string profile_name = tool.profile();
-    // An in-place update holds the profile's lock from this read to the write.
-    const auto lock = update ? cli::lock_for_update(profile_name) : nullptr;
+    // A profile write (--update or -o FILE) holds the written file's lock from this read to
+    // the write, so that a concurrent run's section is not lost.
+    const std::string destination = update ? profile_name : output;
+    const auto lock = !destination.empty() && !core::is_standard_output(destination) ? cli::lock_for_update(destination)
+                                                                                    : nullptr;
     model::Profile profile = model::load_profile(profile_name);
     model::select_payload(profile, tool.payload());
     if (filter_gain > 0) options.identify.filter_gain = filter_gain;

@@ -89,8 +89,11 @@ int main(int argc, char** argv) {
       o.select.joints = fit::parse_joints(joints_text, "--joints");
       fit::parse_window(o.window_text, "--window", o.select);
       if (min_speed_text != "auto") o.min_speed = fit::parse_option_number(min_speed_text, "--min-speed");
-      // An in-place update holds the profile's lock from its read to the write.
-      const auto lock = update ? cli::lock_for_update(o.profile) : nullptr;
+      // A profile write (--update or -o FILE) holds the written file's lock from the read to
+      // the write, so that a concurrent run's section is not lost.
+      const auto lock = !o.destination.empty() && !core::is_standard_output(o.destination)
+                            ? cli::lock_for_update(o.destination)
+                            : nullptr;
       cli::Progress progress(tool.show_progress());
       const auto summary = fit::fit_profile_friction(
           o, [&](const std::string& path) { return tool.open_input(path); },

@@ -2,6 +2,8 @@
 // no temporary left behind (also when a signal ends the run), and a lock that makes a
 // read-compare-write see the previous holder's write.
 #include <gtest/gtest.h>
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -343,4 +345,224 @@ TEST(Output, ADocumentReplacesAFileAtomicallyThroughASymlink) {
   // A new file.
   write_document((dir.path / "new.json").string(), "[]\n");
   EXPECT_EQ(read(dir.path / "new.json"), "[]\n");
+}
+
+// ---- one path for opening files: an output that cannot be opened is an error naming it, an
+// output that is one of the run's inputs (or another of its outputs) is refused before anything
+// is truncated, whatever path names it.
+
+namespace {
+
+using momentum::core::close_input;
+using momentum::core::expect_input;
+using momentum::core::forget_inputs_and_outputs;
+using momentum::core::open_input;
+
+}  // namespace
+
+TEST(Output, EveryPathThatCannotBeOpenedIsAnErrorNamingIt) {
+  Folder dir;
+  fs::create_symlink("loop-b", dir.path / "loop-a");
+  fs::create_symlink("loop-a", dir.path / "loop-b");
+  const std::string missing = (dir.path / "no-such-folder" / "out.csv").string();
+  const std::string folder = dir.path.string();
+  const std::string loop = (dir.path / "loop-a").string();
+  EXPECT_EQ(error_of([&] { OutputFile out(missing); }), missing + ": cannot create: No such file or directory");
+  EXPECT_EQ(error_of([&] { OutputFile out(folder); }), folder + ": cannot create: Is a directory");
+  EXPECT_EQ(error_of([&] { OutputFile out(loop); }), loop + ": cannot create: Too many levels of symbolic links");
+}
+
+TEST(Output, AnInputIsNeverTruncatedWhateverPathNamesIt) {
+  Folder dir;
+  forget_inputs_and_outputs();
+  const fs::path log = dir.path / "x.csv";
+  write(log, "t,q1\n0,1\n");
+  fs::create_symlink("x.csv", dir.path / "link.csv");
+  fs::create_hard_link(log, dir.path / "hard.csv");
+  const int fd = open_input(log.string());
+  ASSERT_GE(fd, 0);
+  for (const fs::path& output : {log, dir.path / "link.csv", dir.path / "." / "x.csv", dir.path / "hard.csv"}) {
+    EXPECT_EQ(error_of([&] { OutputFile out(output.string()); }),
+              output.string() + ": is also an input (" + log.string() + "); not overwritten");
+    EXPECT_EQ(error_of([&] { replace_file(output, "new"); }),
+              output.string() + ": is also an input (" + log.string() + "); not overwritten");
+  }
+  EXPECT_EQ(read(log), "t,q1\n0,1\n");
+  // Once the input is closed the file may be written (a tool that read it earlier in one run).
+  close_input(fd);
+  {
+    OutputFile out(log.string());
+    out.write("new\n");
+    out.close();
+  }
+  EXPECT_EQ(read(log), "new\n");
+}
+
+TEST(Output, AnInputDeclaredBeforeItIsOpenedIsRefusedToo) {
+  Folder dir;
+  forget_inputs_and_outputs();
+  const fs::path second = dir.path / "b.csv";
+  write(second, "t\n1\n");
+  expect_input(second.string());
+  expect_input((dir.path / "absent.csv").string());  // nothing to protect yet: ignored
+  EXPECT_EQ(error_of([&] { OutputFile out(second.string()); }),
+            second.string() + ": is also an input (" + second.string() + "); not overwritten");
+  EXPECT_EQ(read(second), "t\n1\n");
+  OutputFile fresh((dir.path / "absent.csv").string());
+  forget_inputs_and_outputs();
+}
+
+TEST(Output, TwoOutputsOfOneRunAreNeverOneFileAndAnOutputIsNotReadBack) {
+  Folder dir;
+  forget_inputs_and_outputs();
+  const fs::path log = dir.path / "log.csv";
+  OutputFile first(log.string());
+  first.write("t\n");
+  EXPECT_EQ(error_of([&] { OutputFile second(log.string()); }),
+            log.string() + ": is also the output " + log.string() + "; not overwritten");
+  EXPECT_EQ(error_of([&] { open_input(log.string()); }),
+            log.string() + ": is also the output " + log.string() + "; not read");
+  first.close();
+  const int fd = open_input(log.string());
+  close_input(fd);
+  EXPECT_EQ(read(log), "t\n");
+}
+
+TEST(Output, StandardOutputRedirectedOntoAnInputIsRefused) {
+  Folder dir;
+  const fs::path log = dir.path / "x.csv";
+  write(log, "t\n1\n");
+  std::fflush(stdout);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    forget_inputs_and_outputs();
+    // mo-cat x.csv >> x.csv
+    const int out = ::open(log.c_str(), O_WRONLY | O_APPEND);
+    ::dup2(out, STDOUT_FILENO);
+    const int in = open_input(log.string());
+    try {
+      OutputFile o("-");
+      o.write("t\n1\n");
+    } catch (const momentum::Error& e) {
+      ::_exit(std::string(e.what()) == "<stdout>: is also an input (" + log.string() + "); not overwritten" ? 0 : 4);
+    }
+    close_input(in);
+    ::_exit(3);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+  EXPECT_EQ(read(log), "t\n1\n");
+}
+
+// ---- profile writes: every one takes the lock, and temporaries of dead writers do not last.
+
+TEST(ReplaceFile, ALockedWriteWaitsForTheHolderAndLandsAfterIt) {
+  Folder dir;
+  const fs::path p = dir.path / "arm.json";
+  write(p, "original");
+  int go[2];
+  ASSERT_EQ(::pipe(go), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    char c = 0;
+    if (::read(go[0], &c, 1) != 1) ::_exit(2);
+    // A -o writer that did not read under the lock: its write must wait for the holder's.
+    momentum::core::ReplaceOptions options;
+    options.lock = true;
+    replace_file(p, "the writer's", options);
+    ::_exit(0);
+  }
+  {
+    FileLock holder(p);
+    ASSERT_TRUE(holder.locked());
+    ASSERT_EQ(::write(go[1], "g", 1), 1);
+    ::usleep(300 * 1000);  // time for the writer to be waiting (or, unlocked, to be done)
+    EXPECT_EQ(read(p), "original") << "wrote under another run's lock";
+    replace_file(p, "the holder's");
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  EXPECT_EQ(read(p), "the writer's");
+  EXPECT_EQ(dir.entries(), 1u);
+  for (int fd : go) ::close(fd);
+}
+
+TEST(ReplaceFile, ALockedWriteInsideTheRunsOwnLockDoesNotWaitForItself) {
+  Folder dir;
+  const fs::path p = dir.path / "arm.json";
+  write(p, "old");
+  FileLock mine(p);
+  momentum::core::ReplaceOptions options;
+  options.lock = true;
+  replace_file(p, "new", options);
+  replace_file(p, "newer", options);  // the inode locked is gone: the new one is locked for the write
+  EXPECT_EQ(read(p), "newer");
+}
+
+TEST(ReplaceFile, TheTemporaryOfAWriterKilledWithSigkillIsRemovedByTheNextWrite) {
+  Folder dir;
+  const fs::path p = dir.path / "arm.json";
+  write(p, "old");
+  int ready[2];
+  ASSERT_EQ(::pipe(ready), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // A writer stopped for good in the middle of its write: its temporary exists and is flocked.
+    std::string temp = (dir.path / (momentum::core::temporary_prefix(p) + "XXXXXX")).string();
+    const int fd = ::mkstemp(temp.data());
+    if (fd < 0 || ::flock(fd, LOCK_EX) != 0 || ::write(fd, "half a prof", 11) != 11) ::_exit(2);
+    (void)!::write(ready[1], "r", 1);
+    ::pause();
+    ::_exit(0);
+  }
+  char c = 0;
+  ASSERT_EQ(::read(ready[0], &c, 1), 1);
+  EXPECT_EQ(dir.entries(), 2u);
+  // While the writer lives its temporary stays, whoever writes meanwhile.
+  EXPECT_EQ(momentum::core::remove_stale_temporaries(p), 0);
+  EXPECT_EQ(dir.entries(), 2u);
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_EQ(dir.entries(), 2u);  // SIGKILL runs no code: the temporary is left behind
+  replace_file(p, "new");
+  EXPECT_EQ(read(p), "new");
+  EXPECT_EQ(dir.entries(), 1u);
+  // A user's file that only looks alike is kept (not the pattern's length).
+  write(dir.path / (momentum::core::temporary_prefix(p) + "mine.backup"), "x");
+  FileLock lock(p);
+  EXPECT_EQ(dir.entries(), 2u);
+  for (int fd : ready) ::close(fd);
+}
+
+TEST(ReplaceFile, TheLockHolderRemovesStaleTemporaries) {
+  Folder dir;
+  const fs::path p = dir.path / "arm.json";
+  write(p, "old");
+  write(dir.path / (momentum::core::temporary_prefix(p) + "Ab12Cd"), "left by a dead writer");
+  FileLock lock(p);
+  EXPECT_TRUE(lock.locked());
+  EXPECT_EQ(dir.entries(), 1u);
+}
+
+TEST(RemoveOnSignal, ATemporaryFileDoesNotOutliveSIGHUP) {
+  Folder dir;
+  const fs::path p = dir.path / "temp";
+  write(p, "partial");
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    RemoveOnSignal guard(p.string());
+    ::raise(SIGHUP);
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGHUP);
+  EXPECT_FALSE(fs::exists(p));
 }

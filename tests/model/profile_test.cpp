@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cctype>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -90,12 +91,83 @@ TEST_F(ProfileTest, CommentsAndAllModelKeys) {
 TEST_F(ProfileTest, UnknownKeysWarnOnce) {
   const fs::path path = write(
       "arm.json",
-      R"({"urdf": "x.urdf", "root": "a", "tip": "b", "colour": 1, "joints": [{"ki": 3}]})");
+      R"({"urdf": "x.urdf", "root": "a", "tip": "b", "colour": 1, "joints": [{"torque": 3}]})");
   const mm::Profile profile = mm::load_profile(path);
   ASSERT_EQ(warnings.size(), 2u);
   EXPECT_EQ(warnings[0], path.string() + ": unknown key \"colour\" ignored");
-  EXPECT_EQ(warnings[1], path.string() + ": unknown key \"ki\" in \"joints\"[0] ignored");
+  EXPECT_EQ(warnings[1], path.string() + ": unknown key \"torque\" in \"joints\"[0] ignored");
   EXPECT_EQ(profile.joints[0].k_i, 1.0);
+}
+
+// A misspelt known key used to warn and leave its section at the defaults: "joint" for "joints"
+// made every torque constant 1. A near miss (case, '_', one or two edits) is an error naming the
+// key it resembles and its line.
+TEST_F(ProfileTest, ANearMissOfAKnownKeyIsAnErrorNamingIt) {
+  struct Case {
+    std::string members, message;
+  };
+  const std::vector<Case> cases = {
+      {R"("joint": [{"k_i": 11}])", ":3: unknown key \"joint\": did you mean \"joints\"?"},
+      {R"("Joints": [{"k_i": 11}])", ":3: unknown key \"Joints\": did you mean \"joints\"?"},
+      {R"("treshold": {})", ":3: unknown key \"treshold\": did you mean \"thresholds\"?"},
+      {R"("fricton": {})", ":3: unknown key \"fricton\": did you mean \"friction\"?"},
+      {R"("active-payload": "none")", ":3: unknown key \"active-payload\": did you mean \"active_payload\"?"},
+      {R"("joints": [{"ki": 11}])", ":3: unknown key \"ki\" in \"joints\"[0]: did you mean \"k_i\"?"},
+      {R"("joints": [{"rotor_inertai": 1}])",
+       ":3: unknown key \"rotor_inertai\" in \"joints\"[0]: did you mean \"rotor_inertia\"?"},
+      {R"("payloads": {"box": {"Mass": 1}})",
+       ":3: unknown key \"Mass\" in \"payloads\".box: did you mean \"mass\"?"},
+  };
+  for (const auto& c : cases) {
+    const fs::path path = write("near.json", "{\"urdf\": \"x.urdf\", \"root\": \"a\", \"tip\": \"b\",\n\n  " +
+                                                 c.members + "\n}\n");
+    const std::string message = error_of(path);
+    EXPECT_EQ(message.rfind(path.string() + c.message, 0), 0u) << message;
+  }
+  // Keys of one's own that resemble none stay warnings.
+  const fs::path own = write("own.json", R"({"urdf": "x", "root": "a", "tip": "b", "site": "lab 2", "notes": 1})");
+  EXPECT_NO_THROW(mm::load_profile(own));
+  EXPECT_EQ(warnings.size(), 2u);
+}
+
+// A profile nested thousands deep took 27 s (3,000 levels) or crashed (30,000): the depth is
+// bounded before the document is parsed.
+TEST_F(ProfileTest, DeepNestingIsAnErrorWithItsLine) {
+  for (const int depth : {65, 3000, 30000}) {
+    const fs::path path = write("deep.json", "{\"urdf\": \"x\", \"root\": \"a\", \"tip\": \"b\",\n\"x\": " +
+                                                 std::string(static_cast<std::size_t>(depth), '[') +
+                                                 std::string(static_cast<std::size_t>(depth), ']') + "}\n");
+    const auto start = std::chrono::steady_clock::now();
+    const std::string message = error_of(path);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(message, path.string() + ":2: arrays and objects nest deeper than 64 levels") << depth;
+    EXPECT_LT(seconds, 1.0) << depth;
+  }
+  // 64 levels, brackets in strings and comments not counted.
+  const fs::path ok = write("ok.json", "{\"urdf\": \"x\", \"root\": \"a\", \"tip\": \"b\", \"name\": \"[[[[\", // {{{{\n" +
+                                           std::string("\"x\": ") + std::string(63, '[') + std::string(63, ']') + "}");
+  EXPECT_NO_THROW(mm::load_profile(ok));
+}
+
+TEST_F(ProfileTest, ANumberBeyondDoubleIsAnErrorNamingFileAndLine) {
+  const fs::path path = write("big.json", "{\"urdf\": \"x\", \"root\": \"a\", \"tip\": \"b\",\n"
+                                          "  \"joints\": [\n    {\"k_i\": 1e999}\n  ]\n}\n");
+  EXPECT_EQ(error_of(path), path.string() + ":3: invalid json: number out of range: 1e999");
+}
+
+// A byte order mark (an editor's) was read but the profile could not be written back.
+TEST_F(ProfileTest, AProfileWithAByteOrderMarkIsWrittenBackWithIt) {
+  const std::string bom = "\xEF\xBB\xBF";
+  const fs::path path = write("bom.json", bom + "// arm\n{\"urdf\": \"x\", \"root\": \"a\", \"tip\": \"b\"}\n");
+  const mm::Profile profile = mm::load_profile(path);
+  nlohmann::json document = profile.document;
+  document["thresholds"] = {{"mu", 1}};
+  mm::save_profile_as(document, profile, path);
+  std::ifstream in(path, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  // (an object written on one line that gains a member is rewritten whole, on one line)
+  EXPECT_EQ(text, bom + "// arm\n{\"root\": \"a\", \"thresholds\": {\"mu\": 1}, \"tip\": \"b\", \"urdf\": \"x\"}\n");
+  EXPECT_EQ(mm::load_profile(path).document["thresholds"]["mu"], 1);
 }
 
 TEST_F(ProfileTest, SyntaxErrorNamesFileAndLine) {

@@ -347,3 +347,38 @@ TEST(Stats, IrregularStepsAreCountedButGapsAreNot) {
   EXPECT_EQ(s.gaps.count, 2u);
 }
 
+
+TEST(Writer, AnOutputThatCannotBeOpenedIsAnErrorNotACrash) {
+  // The writer used to close an output it never opened (SIGSEGV) when the path failed.
+  const std::string missing = temp_path("no-such-folder") + "/out.csv";
+  const std::string folder = ::testing::TempDir();
+  for (const std::string& path : {missing, folder}) {
+    for (auto encoding : {ms::Encoding::csv, ms::Encoding::binary}) {
+      ms::WriterOptions options;
+      options.encoding = encoding;
+      try {
+        auto writer = ms::Writer::open(path, options);
+        ADD_FAILURE() << "opened " << path;
+      } catch (const momentum::Error& e) {
+        EXPECT_EQ(std::string(e.what()).rfind(path + ": cannot create: ", 0), 0u) << e.what();
+      }
+    }
+  }
+}
+
+TEST(Writer, AnOutputThatIsTheInputBeingReadIsRefusedAndTheInputKept) {
+  const std::string path = temp_path("same.csv");
+  write_file(path, "t,q1\n0,1\n1,2\n");
+  {
+    auto in = ms::Reader::open(path);
+    try {
+      auto out = ms::Writer::open(path);
+      ADD_FAILURE() << "the input was opened as the output";
+    } catch (const momentum::Error& e) {
+      EXPECT_EQ(std::string(e.what()), path + ": is also an input (" + path + "); not overwritten");
+    }
+    EXPECT_NE(in->next(), nullptr);
+  }
+  EXPECT_EQ(read_file(path), "t,q1\n0,1\n1,2\n");
+  std::remove(path.c_str());
+}

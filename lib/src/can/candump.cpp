@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "momentum/can/asc.hpp"
+#include "momentum/core/file.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
@@ -492,8 +493,7 @@ std::unique_ptr<CandumpReader> CandumpReader::open(const std::string& path, Cand
     if (options.display_name.empty()) options.display_name = "<stdin>";
     return from_fd(0, false, std::move(options));
   }
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw Error(path + ": cannot open: " + std::strerror(errno));
+  const int fd = core::open_input(path);  // recorded: no output of the run may overwrite it
   if (options.display_name.empty()) options.display_name = path;
   return from_fd(fd, true, std::move(options));
 }
@@ -523,7 +523,7 @@ std::unique_ptr<CandumpReader> CandumpReader::from_text(std::string_view text, C
 }
 
 CandumpReader::~CandumpReader() {
-  if (owns_fd_ && fd_ >= 0) ::close(fd_);
+  if (owns_fd_ && fd_ >= 0) core::close_input(fd_);
 }
 
 std::string CandumpReader::where() const { return name_ + ":" + std::to_string(frame_line_); }

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -163,6 +164,11 @@ int Tool::run_body(int argc, char** argv, const std::function<int()>& body) {
     std::cerr << name_ << ": error: " << what << " (see " << name_ << " --help)\n";
     return kUsage;
   }
+  // The inputs named, and standard input when read, are files no output of this run may
+  // overwrite, also those read only after the output is opened (mo-cat a.csv b.csv -o b.csv).
+  for (const auto& input : inputs_) core::expect_input(input);
+  if (inputs_.empty() || std::find(inputs_.begin(), inputs_.end(), "-") != inputs_.end())
+    core::expect_input("/dev/stdin", "<stdin>");
   std::string prefix = name_ + ": warning: ";
   set_warning_sink([this, prefix](std::string_view message) {
     if (!quiet_) {

@@ -5,11 +5,15 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <dirent.h>
+
+#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
+#include <mutex>
 #include <vector>
 
 #include "momentum/core/error.hpp"
@@ -50,16 +54,91 @@ constexpr int kSlots = 4;
 constexpr std::size_t kPathMax = 4096;
 char g_temp[kSlots][kPathMax];
 volatile std::sig_atomic_t g_used[kSlots];
-struct sigaction g_previous_int, g_previous_term;
+// The signals that end a run while it can still run code (SIGKILL cannot be caught: the next
+// write removes what it leaves, remove_stale_temporaries).
+constexpr int kSignals[] = {SIGINT, SIGTERM, SIGHUP};
+struct sigaction g_previous[std::size(kSignals)];
 int g_registered = 0;
+
+void restore_handlers() {
+  for (std::size_t k = 0; k < std::size(kSignals); ++k) ::sigaction(kSignals[k], &g_previous[k], nullptr);
+}
 
 extern "C" void remove_temporaries(int signal) {
   for (int i = 0; i < kSlots; ++i)
     if (g_used[i]) ::unlink(g_temp[i]);
   // Deliver the signal as if this handler had not been there.
-  ::sigaction(SIGINT, &g_previous_int, nullptr);
-  ::sigaction(SIGTERM, &g_previous_term, nullptr);
+  restore_handlers();
   ::raise(signal);
+}
+
+// The files of this run: inputs, streamed outputs, and the profile locks this process holds.
+struct FileId {
+  dev_t dev = 0;
+  ino_t ino = 0;
+  bool operator==(const FileId& o) const { return dev == o.dev && ino == o.ino; }
+};
+struct NamedFile {
+  FileId id;
+  std::string name;
+  int open = 0;           // descriptors open on it now
+  bool expected = false;  // declared by expect_input: for the whole run
+};
+std::mutex g_files_mutex;
+std::vector<NamedFile> g_inputs, g_outputs;
+std::vector<FileId> g_locks_held;
+
+FileId id_of(const struct stat& st) { return {st.st_dev, st.st_ino}; }
+
+const NamedFile* find(const std::vector<NamedFile>& files, const FileId& id) {
+  for (const auto& f : files)
+    if (f.id == id) return &f;
+  return nullptr;
+}
+
+// Records one more open descriptor of `id` (or, with `expected`, a file of the whole run).
+void record(std::vector<NamedFile>& files, const FileId& id, const std::string& name, bool expected = false) {
+  std::lock_guard<std::mutex> guard(g_files_mutex);
+  for (auto& f : files) {
+    if (f.id == id) {
+      if (expected) f.expected = true;
+      else ++f.open;
+      return;
+    }
+  }
+  files.push_back({id, name, expected ? 0 : 1, expected});
+}
+
+// One descriptor of `id` closed: forgotten once none is open and it was not declared.
+void unrecord(std::vector<NamedFile>& files, const FileId& id) {
+  std::lock_guard<std::mutex> guard(g_files_mutex);
+  for (auto it = files.begin(); it != files.end(); ++it) {
+    if (!(it->id == id)) continue;
+    if (it->open > 0) --it->open;
+    if (it->open == 0 && !it->expected) files.erase(it);
+    return;
+  }
+}
+
+// The input `st` is, or nullptr: only regular files count (a device or fifo read and written
+// is no file overwritten).
+std::string input_named(const struct stat& st) {
+  if (!S_ISREG(st.st_mode)) return {};
+  std::lock_guard<std::mutex> guard(g_files_mutex);
+  const NamedFile* f = find(g_inputs, id_of(st));
+  return f ? f->name : std::string();
+}
+
+std::string output_named(const struct stat& st) {
+  if (!S_ISREG(st.st_mode)) return {};
+  std::lock_guard<std::mutex> guard(g_files_mutex);
+  const NamedFile* f = find(g_outputs, id_of(st));
+  return f ? f->name : std::string();
+}
+
+bool lock_held(const FileId& id) {
+  std::lock_guard<std::mutex> guard(g_files_mutex);
+  return std::find(g_locks_held.begin(), g_locks_held.end(), id) != g_locks_held.end();
 }
 
 }  // namespace
@@ -77,8 +156,7 @@ RemoveOnSignal::RemoveOnSignal(const std::string& path) {
     struct sigaction action {};
     action.sa_handler = remove_temporaries;
     sigemptyset(&action.sa_mask);
-    ::sigaction(SIGINT, &action, &g_previous_int);
-    ::sigaction(SIGTERM, &action, &g_previous_term);
+    for (std::size_t k = 0; k < std::size(kSignals); ++k) ::sigaction(kSignals[k], &action, &g_previous[k]);
   }
   g_used[slot_] = 1;
 }
@@ -86,10 +164,81 @@ RemoveOnSignal::RemoveOnSignal(const std::string& path) {
 RemoveOnSignal::~RemoveOnSignal() {
   if (slot_ < 0) return;
   g_used[slot_] = 0;
-  if (--g_registered == 0) {
-    ::sigaction(SIGINT, &g_previous_int, nullptr);
-    ::sigaction(SIGTERM, &g_previous_term, nullptr);
+  if (--g_registered == 0) restore_handlers();
+}
+
+int open_input(const std::string& path, const std::string& display_name) {
+  const bool from_stdin = is_standard_output(path);
+  const std::string name = !display_name.empty() ? display_name : from_stdin ? "<stdin>" : path;
+  const int fd = from_stdin ? STDIN_FILENO : ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(name + ": cannot open: " + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) {
+    if (const std::string output = output_named(st); !output.empty()) {
+      if (!from_stdin) ::close(fd);
+      throw Error(name + ": is also the output " + output + "; not read");
+    }
+    record(g_inputs, id_of(st), name);
   }
+  return fd;
+}
+
+void expect_input(const std::string& path, const std::string& display_name) {
+  if (is_standard_output(path)) return;
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode))
+    record(g_inputs, id_of(st), display_name.empty() ? path : display_name, /*expected=*/true);
+}
+
+void close_input(int fd) {
+  if (fd < 0) return;
+  struct stat st {};
+  if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) unrecord(g_inputs, id_of(st));
+  if (fd != STDIN_FILENO) ::close(fd);
+}
+
+void refuse_if_input(const std::string& path, const std::string& display_name) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return;
+  if (const std::string input = input_named(st); !input.empty())
+    throw Error((display_name.empty() ? path : display_name) + ": is also an input (" + input + "); not overwritten");
+}
+
+void forget_inputs_and_outputs() {
+  std::lock_guard<std::mutex> guard(g_files_mutex);
+  g_inputs.clear();
+  g_outputs.clear();
+}
+
+std::string temporary_prefix(const fs::path& target) { return "." + target.filename().string() + ".tmp-"; }
+
+int remove_stale_temporaries(const fs::path& target) {
+  fs::path folder = target.parent_path();
+  if (folder.empty()) folder = ".";
+  const std::string prefix = temporary_prefix(target);
+  DIR* dir = ::opendir(folder.c_str());
+  if (!dir) return 0;
+  std::vector<std::string> candidates;
+  while (const dirent* entry = ::readdir(dir)) {
+    const std::string name = entry->d_name;
+    if (name.size() == prefix.size() + 6 && name.compare(0, prefix.size(), prefix) == 0) candidates.push_back(name);
+  }
+  ::closedir(dir);
+  int removed = 0;
+  for (const auto& name : candidates) {
+    const fs::path temp = folder / name;
+    const int fd = ::open(temp.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0) continue;
+    struct stat opened {}, now {};
+    // A writer holds its temporary's flock until it renamed or removed it: a free lock is a
+    // dead writer's. Removed while we hold the flock, so that a writer that just created it and
+    // waits for its flock finds its name gone and starts again (replace_file).
+    if (::fstat(fd, &opened) == 0 && S_ISREG(opened.st_mode) && ::flock(fd, LOCK_EX | LOCK_NB) == 0 &&
+        ::lstat(temp.c_str(), &now) == 0 && id_of(now) == id_of(opened) && ::unlink(temp.c_str()) == 0)
+      ++removed;
+    ::close(fd);
+  }
+  return removed;
 }
 
 fs::path write_target(const fs::path& path) {
@@ -115,8 +264,38 @@ fs::path write_target(const fs::path& path) {
   }
 }
 
+namespace {
+
+// Creates the temporary file for `target` and takes its flock (the sign that its writer lives).
+// A cleaner may remove it between the two (it saw a free flock): then its name is gone, and a
+// new one is made. Returns the descriptor; `temp` receives the name.
+int create_temporary(const fs::path& path, const fs::path& target, std::string& temp) {
+  fs::path folder = target.parent_path();
+  if (folder.empty()) folder = ".";
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    temp = (folder / (temporary_prefix(target) + "XXXXXX")).string();
+    const int fd = ::mkstemp(temp.data());
+    if (fd < 0) fail(path, std::string("cannot create a temporary file: ") + std::strerror(errno));
+    struct stat mine {}, named {};
+    if (::flock(fd, LOCK_EX) == 0 && ::fstat(fd, &mine) == 0 && ::lstat(temp.c_str(), &named) == 0 &&
+        id_of(mine) == id_of(named))
+      return fd;
+    ::close(fd);
+  }
+  fail(path, "cannot create a temporary file: its name keeps being removed");
+}
+
+}  // namespace
+
 void replace_file(const fs::path& path, std::string_view bytes, const ReplaceOptions& options) {
   const fs::path target = write_target(path);
+  refuse_if_input(target.string(), path.string());
+  // Every profile write holds the profile's lock; a run that holds it since its read keeps it.
+  std::unique_ptr<FileLock> lock;
+  if (options.lock) {
+    struct stat st {};
+    if (::stat(target.c_str(), &st) != 0 || !lock_held(id_of(st))) lock = std::make_unique<FileLock>(path);
+  }
   struct stat old {};
   const bool exists = ::stat(target.c_str(), &old) == 0;
   if (exists && options.refuse_read_only && (old.st_mode & S_IWUSR) == 0) {
@@ -126,9 +305,9 @@ void replace_file(const fs::path& path, std::string_view bytes, const ReplaceOpt
   }
   fs::path folder = target.parent_path();
   if (folder.empty()) folder = ".";
-  std::string temp = (folder / ("." + target.filename().string() + ".XXXXXX")).string();
-  const int fd = ::mkstemp(temp.data());
-  if (fd < 0) fail(path, std::string("cannot create a temporary file: ") + std::strerror(errno));
+  remove_stale_temporaries(target);
+  std::string temp;
+  const int fd = create_temporary(path, target, temp);
   RemoveOnSignal guard(temp);
   auto abandon = [&](const std::string& what, int error) {
     ::close(fd);
@@ -143,16 +322,10 @@ void replace_file(const fs::path& path, std::string_view bytes, const ReplaceOpt
   }
   if (const int error = write_bytes(fd, bytes); error != 0) abandon("cannot write", error);
   if (::fsync(fd) != 0) abandon("cannot write (sync)", errno);
-  if (::close(fd) != 0) {
-    const int saved = errno;
-    ::unlink(temp.c_str());
-    fail(path, std::string("cannot write (close): ") + std::strerror(saved));
-  }
-  if (::rename(temp.c_str(), target.c_str()) != 0) {
-    const int saved = errno;
-    ::unlink(temp.c_str());
-    fail(path, std::string("cannot replace: ") + std::strerror(saved));
-  }
+  // Renamed while its flock is held, so that no cleaner takes the finished file for a dead
+  // writer's; the data are on disk already (fsync), so the close has nothing left to report.
+  if (::rename(temp.c_str(), target.c_str()) != 0) abandon("cannot replace", errno);
+  ::close(fd);
   // Make the rename itself durable.
   const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir >= 0) {
@@ -174,16 +347,48 @@ OutputFile::OutputFile(const std::string& path) {
     fd_ = STDOUT_FILENO;
   } else {
     name_ = path;
-    fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    // Opened without O_TRUNC: nothing is truncated before we know it is no input of ours.
+    fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0666);
     if (fd_ < 0) fail(path, std::string("cannot create: ") + std::strerror(errno));
     owns_fd_ = true;
   }
   struct stat st {};
-  interactive_ = ::fstat(fd_, &st) == 0 && (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode) || S_ISCHR(st.st_mode));
+  if (::fstat(fd_, &st) != 0) st.st_mode = 0;
+  std::string clash;
+  if (const std::string input = input_named(st); !input.empty()) {
+    clash = "is also an input (" + input + "); not overwritten";
+  } else if (const std::string output = output_named(st); !output.empty() && owns_fd_) {
+    clash = "is also the output " + output + "; not overwritten";
+  }
+  if (!clash.empty()) {
+    if (owns_fd_) ::close(fd_);
+    fd_ = -1;
+    fail(name_, clash);
+  }
+  if (owns_fd_ && S_ISREG(st.st_mode)) {
+    if (::ftruncate(fd_, 0) != 0) {
+      const int saved = errno;
+      ::close(fd_);
+      fd_ = -1;
+      fail(name_, std::string("cannot create: ") + std::strerror(saved));
+    }
+  }
+  if (S_ISREG(st.st_mode) && owns_fd_) {
+    record(g_outputs, id_of(st), name_);
+    recorded_ = true;
+    id_ = {static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
+  }
+  interactive_ = S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode) || S_ISCHR(st.st_mode);
 }
 
 OutputFile::~OutputFile() {
+  forget();
   if (owns_fd_ && fd_ >= 0) ::close(fd_);
+}
+
+void OutputFile::forget() {
+  if (recorded_) unrecord(g_outputs, FileId{static_cast<dev_t>(id_.first), static_cast<ino_t>(id_.second)});
+  recorded_ = false;
 }
 
 void OutputFile::write(std::string_view bytes) {
@@ -192,6 +397,7 @@ void OutputFile::write(std::string_view bytes) {
 }
 
 void OutputFile::close() {
+  forget();
   const int fd = fd_;
   fd_ = -1;
   if (owns_fd_ && fd >= 0 && ::close(fd) != 0) throw Error(name_ + ": close error: " + std::strerror(errno));
@@ -246,6 +452,12 @@ FileLock::FileLock(const fs::path& path, const std::function<void(const std::str
     if (::fstat(fd, &locked) == 0 && ::stat(target_.c_str(), &current) == 0 && locked.st_ino == current.st_ino &&
         locked.st_dev == current.st_dev) {
       fd_ = fd;
+      id_ = {static_cast<std::uint64_t>(locked.st_dev), static_cast<std::uint64_t>(locked.st_ino)};
+      {
+        std::lock_guard<std::mutex> guard(g_files_mutex);
+        g_locks_held.push_back(id_of(locked));
+      }
+      remove_stale_temporaries(target_);
       return;
     }
     ::close(fd);
@@ -256,7 +468,14 @@ FileLock::FileLock(const fs::path& path, const std::function<void(const std::str
 FileLock::~FileLock() { release(); }
 
 void FileLock::release() {
-  if (fd_ >= 0) ::close(fd_);  // closing the descriptor releases the flock
+  if (fd_ < 0) return;
+  {
+    std::lock_guard<std::mutex> guard(g_files_mutex);
+    const FileId id{static_cast<dev_t>(id_.first), static_cast<ino_t>(id_.second)};
+    const auto it = std::find(g_locks_held.begin(), g_locks_held.end(), id);
+    if (it != g_locks_held.end()) g_locks_held.erase(it);
+  }
+  ::close(fd_);  // closing the descriptor releases the flock
   fd_ = -1;
 }
 

@@ -2,6 +2,7 @@
 
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -66,9 +67,92 @@ std::uint64_t line_of_byte(const std::string& text, std::size_t byte) {
                  std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(end), '\n'));
 }
 
+// The line of the first `"key"` that a colon follows (a member name), or 0 when `text` is empty
+// or does not hold it.
+std::uint64_t line_of_key(const std::string& text, const std::string& key) {
+  const std::string quoted = nlohmann::json(key).dump();
+  for (std::size_t at = text.find(quoted); at != std::string::npos; at = text.find(quoted, at + 1)) {
+    std::size_t k = at + quoted.size();
+    while (k < text.size() && std::isspace(static_cast<unsigned char>(text[k]))) ++k;
+    if (k < text.size() && text[k] == ':') return line_of_byte(text, at + 1);
+  }
+  return 0;
+}
+
+// A key as its writer may have meant it: lower case, without '_', '-' and spaces.
+std::string key_skeleton(const std::string& key) {
+  std::string out;
+  for (const char c : key)
+    if (c != '_' && c != '-' && c != ' ') out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+// Optimal string alignment distance (edits, and swaps of neighbours) between `a` and `b`.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  }
+  return d[a.size()][b.size()];
+}
+
+// Throws when the unknown key `key` of `where` is a near miss of a key this layer knows (the
+// same but for case, '_' or '-'; or one edit away from a known key of 4 or more characters, two
+// from one of 8 or more): a misspelt "joints" would otherwise leave every drive at its defaults
+// with only a warning. Otherwise warns that it is ignored.
+void unknown_key(const std::string& key, const std::vector<std::string>& known, const std::string& where,
+                 const std::filesystem::path& path, const std::string& text) {
+  const std::string skeleton = key_skeleton(key);
+  for (const auto& k : known) {
+    const std::string target = key_skeleton(k);
+    const std::size_t shorter = std::min(skeleton.size(), target.size());
+    const std::size_t distance = edit_distance(skeleton, target);
+    const bool near = distance == 0 || (distance == 1 && shorter >= 4) || (distance == 2 && shorter >= 8);
+    if (near)
+      fail(path, "unknown key " + in_quotes(key) + where + ": did you mean " + in_quotes(k) +
+                     "? (a misspelt key leaves its section at the defaults)",
+           line_of_key(text, key));
+  }
+  warn(located(path.string(), 0, "unknown key " + in_quotes(key) + where + " ignored"));
+}
+
+// How deeply arrays and objects may nest in a profile: ours nest 6 levels at most, and a
+// document nested thousands deep would cost seconds and the stack of every recursive walk.
+constexpr int kMaxDepth = 64;
+
+// Throws, naming the line, when `text` nests arrays and objects deeper than kMaxDepth (strings
+// and // or /* */ comments are skipped as the parser skips them).
+void check_depth(const std::string& text, const std::filesystem::path& path) {
+  int depth = 0;
+  for (std::size_t k = 0; k < text.size(); ++k) {
+    const char c = text[k];
+    if (c == '"') {
+      for (++k; k < text.size() && text[k] != '"'; ++k)
+        if (text[k] == '\\') ++k;
+    } else if (c == '/' && k + 1 < text.size() && text[k + 1] == '/') {
+      k = text.find('\n', k);
+      if (k == std::string::npos) return;
+    } else if (c == '/' && k + 1 < text.size() && text[k + 1] == '*') {
+      k = text.find("*/", k + 2);
+      if (k == std::string::npos) return;
+      ++k;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxDepth)
+        fail(path, "arrays and objects nest deeper than " + std::to_string(kMaxDepth) + " levels", line_of_byte(text, k + 1));
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
+
 // One entry of "payloads". Inertia: 6 numbers in the URDF's order ixx, ixy, ixz, iyy, iyz, izz.
 Payload parse_payload(const std::string& name, const nlohmann::json& entry,
-                      const std::filesystem::path& path) {
+                      const std::filesystem::path& path, const std::string& text) {
   const std::string where = "\"payloads\"." + name;
   if (name == "none") fail(path, where + ": \"none\" is reserved for no payload");
   if (name.empty()) fail(path, "\"payloads\" has a payload with an empty name");
@@ -107,7 +191,7 @@ Payload parse_payload(const std::string& name, const nlohmann::json& entry,
       }
       payload.link = value.get<std::string>();
     } else if (key != "description") {
-      warn(located(path.string(), 0, "unknown key " + in_quotes(key) + " in " + where + " ignored"));
+      unknown_key(key, {"mass", "com", "inertia", "link", "description"}, " in " + where, path, text);
     }
   }
   if (!have_mass) fail(path, where + ": missing \"mass\" (kg)");
@@ -129,6 +213,10 @@ std::string payload_names(const Profile& profile) {
 
 }  // namespace
 
+namespace {
+Profile profile_from_text(nlohmann::json document, const std::filesystem::path& path, const std::string& text);
+}  // namespace
+
 const std::vector<std::string>& known_profile_keys() {
   static const std::vector<std::string> keys = {
       "urdf",     "root",       "tip",      "gravity",    "joints",
@@ -145,19 +233,35 @@ Profile load_profile(const std::filesystem::path& path) {
   buffer << in.rdbuf();
   if (in.bad()) fail(path, "cannot read profile");
   const std::string text = buffer.str();
+  check_depth(text, path);
   nlohmann::json document;
   try {
     document = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/true,
                                      /*ignore_comments=*/true);
   } catch (const nlohmann::json::parse_error& e) {
     fail(path, "invalid json: " + parse_error_text(e), line_of_byte(text, e.byte));
+  } catch (const nlohmann::json::exception& e) {
+    // A number beyond double's range ("1e999"): the library names the number, not its place.
+    std::string what = e.what();
+    std::uint64_t line = 0;
+    if (const auto open = what.find('\''), close = what.rfind('\''); open != std::string::npos && close > open) {
+      const std::string number = what.substr(open + 1, close - open - 1);
+      if (const auto at = text.find(number); at != std::string::npos) line = line_of_byte(text, at + 1);
+      what = "number out of range: " + number;
+    }
+    fail(path, "invalid json: " + what, line);
   }
-  Profile profile = profile_from_document(std::move(document), path);
-  profile.text = text;
-  return profile;
+  return profile_from_text(std::move(document), path, text);
 }
 
 Profile profile_from_document(nlohmann::json document, const std::filesystem::path& path) {
+  return profile_from_text(std::move(document), path, "");
+}
+
+namespace {
+
+// profile_from_document, with the file's text to find the lines of keys in (empty: none).
+Profile profile_from_text(nlohmann::json document, const std::filesystem::path& path, const std::string& text) {
   if (!document.is_object()) {
     fail(path, std::string("a profile must be a json object, not ") + type_name(document));
   }
@@ -165,9 +269,7 @@ Profile profile_from_document(nlohmann::json document, const std::filesystem::pa
   profile.path = path;
   const auto& known = known_profile_keys();
   for (const auto& item : document.items()) {
-    if (std::find(known.begin(), known.end(), item.key()) == known.end()) {
-      warn(located(path.string(), 0, "unknown key " + in_quotes(item.key()) + " ignored"));
-    }
+    if (std::find(known.begin(), known.end(), item.key()) == known.end()) unknown_key(item.key(), known, "", path, text);
   }
   const std::filesystem::path urdf = required_string(document, "urdf", path);
   profile.urdf = urdf.is_absolute() ? urdf : path.parent_path() / urdf;
@@ -199,8 +301,7 @@ Profile profile_from_document(nlohmann::json document, const std::filesystem::pa
           drive.rotor_inertia = finite_number(item.value(), where + ".rotor_inertia", path);
           if (drive.rotor_inertia < 0.0) fail(path, where + ".rotor_inertia must be >= 0");
         } else if (item.key() != "name") {
-          warn(located(path.string(), 0, "unknown key " + in_quotes(item.key()) + " in " + where +
-                                             " ignored"));
+          unknown_key(item.key(), {"k_i", "rotor_inertia", "name"}, " in " + where, path, text);
         }
       }
       profile.joints.push_back(drive);
@@ -212,7 +313,7 @@ Profile profile_from_document(nlohmann::json document, const std::filesystem::pa
                      std::string(type_name(*it)));
     }
     for (const auto& item : it->items()) {
-      profile.payloads.push_back(parse_payload(item.key(), item.value(), path));
+      profile.payloads.push_back(parse_payload(item.key(), item.value(), path, text));
     }
   }
   if (const auto it = document.find("active_payload"); it != document.end()) {
@@ -227,8 +328,11 @@ Profile profile_from_document(nlohmann::json document, const std::filesystem::pa
     }
   }
   profile.document = std::move(document);
+  profile.text = text;
   return profile;
 }
+
+}  // namespace
 
 void select_payload(Profile& profile, const std::string& name) {
   if (name.empty()) return;
@@ -253,7 +357,10 @@ void save_profile_atomically(const nlohmann::json& document, const std::filesyst
 void save_profile_text_atomically(const std::string& text, const std::filesystem::path& path) {
   // Where the bytes go and how they replace the file is core's (symlinks followed, only a
   // regular file replaced, mode kept, read-only refused, atomic rename, no temporary left).
-  core::replace_file(path, text);
+  // Under the profile's lock (kept when this run holds it since its read).
+  core::ReplaceOptions options;
+  options.lock = true;
+  core::replace_file(path, text, options);
 }
 
 void append_provenance(nlohmann::json& document, const std::string& tool,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <stdexcept>
+#include <string_view>
 #include <vector>
 
 namespace momentum::model {
@@ -303,6 +304,10 @@ std::string format_profile_value(const nlohmann::json& value, const std::string&
 }
 
 std::string edit_profile_text(const std::string& text, const nlohmann::json& updated) {
+  // A UTF-8 byte order mark (an editor's) is no JSON to the scanner: kept, and the rest edited.
+  static constexpr std::string_view kByteOrderMark = "\xEF\xBB\xBF";
+  if (text.starts_with(kByteOrderMark))
+    return std::string(kByteOrderMark) + edit_profile_text(text.substr(kByteOrderMark.size()), updated);
   const nlohmann::json original = parse_json(text);
   const Node root = Scanner(text).document();
   std::vector<Replacement> edits;

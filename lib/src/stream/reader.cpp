@@ -11,6 +11,7 @@
 #include <cstring>
 #include <unordered_set>
 
+#include "momentum/core/file.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -98,7 +99,7 @@ class Input {
     buffer_.resize(1 << 20);
   }
   ~Input() {
-    if (owns_ && fd_ >= 0) ::close(fd_);
+    if (owns_ && fd_ >= 0) core::close_input(fd_);
   }
   Input(const Input&) = delete;
   Input& operator=(const Input&) = delete;
@@ -457,8 +458,8 @@ bool is_live(int fd) {
 std::unique_ptr<Reader> Reader::open(const std::string& path, ReaderOptions options) {
   bool from_stdin = path.empty() || path == "-";
   std::string name = !options.display_name.empty() ? options.display_name : from_stdin ? "<stdin>" : path;
-  int fd = from_stdin ? STDIN_FILENO : ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw Error(name + ": cannot open: " + std::strerror(errno));
+  // Opened through core, which records the input so that no output of the run overwrites it.
+  int fd = core::open_input(from_stdin ? "-" : path, name);
   struct stat st;
   if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
     if (!from_stdin) ::close(fd);

@@ -24,8 +24,10 @@ void put_string(std::vector<char>& out, std::string_view s) {
 }  // namespace
 
 std::unique_ptr<Writer> Writer::open(const std::string& path, WriterOptions options) {
+  // The output first: a path that cannot be opened throws before there is a Writer to close.
+  auto out = std::make_unique<core::OutputFile>(path);
   std::unique_ptr<Writer> writer(new Writer());
-  writer->out_ = std::make_unique<core::OutputFile>(path);
+  writer->out_ = std::move(out);
   writer->options_ = options;
   writer->buffer_.resize(kBufferSize);
   return writer;
@@ -140,7 +142,7 @@ void Writer::flush() {
 void Writer::write_all(const char* data, std::size_t size) { out_->write(std::string_view(data, size)); }
 
 void Writer::close() {
-  if (closed_) return;
+  if (closed_ || !out_) return;
   if (!header_written_ && !pending_comments_.empty()) {
     // Nothing but comments: still a readable stream of no columns is impossible, so emit them
     // as CSV comment lines; a binary stream needs a header, which we do not have.

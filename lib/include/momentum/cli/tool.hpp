@@ -167,10 +167,11 @@ const CLI::Validator& whole_number();
 // Parses "1.5,2,3" into doubles; throws UsageError naming `option` on a bad number.
 std::vector<double> parse_number_list(const std::string& text, const std::string& option);
 
-// Takes the lock (core::FileLock) for an in-place update of the profile `path`, before the
-// profile is read, so that a concurrent run's read-compare-write cannot interleave with this
-// one (its worse fit cannot slip past the refusal); warns once when it has to wait. Throws
-// what core::FileLock throws (a profile that is not a regular file, for one).
+// Takes the lock (core::FileLock) of the profile file `path` a run will write (in place, or
+// -o), before the profile is read, so that a concurrent run's read-compare-write cannot
+// interleave with this one (its worse fit cannot slip past the refusal, its section is not
+// lost); warns once when it has to wait. Throws what core::FileLock throws (a profile that is
+// not a regular file, for one).
 std::unique_ptr<core::FileLock> lock_for_update(const std::string& path);
 
 }  // namespace momentum::cli

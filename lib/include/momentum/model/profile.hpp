@@ -66,13 +66,18 @@ struct Profile {
 // Top-level keys this layer knows; anything else is reported through momentum::warn.
 const std::vector<std::string>& known_profile_keys();
 
-// Reads and parses a profile file. JSON with // and /* */ comments. Throws momentum::Error
-// naming the file (and the line for syntax errors) when the file cannot be read, is not JSON,
-// lacks urdf/root/tip, or a known key has the wrong type or value (gravity not 3 finite numbers,
-// joints not an array of objects, k_i not finite, rotor_inertia negative, a payload with a
-// negative or non-finite mass, a com not 3 numbers, an inertia not 6 numbers or not physical,
-// a payload named "none", "active_payload" naming no payload). Unknown top-level
-// keys are not errors: each is reported once through momentum::warn.
+// Reads and parses a profile file. JSON with // and /* */ comments (a UTF-8 byte order mark is
+// skipped). Throws momentum::Error naming the file (and the line for syntax errors, numbers out
+// of double's range and misspelt keys) when the file cannot be read, is not JSON, nests arrays
+// and objects more than 64 deep, lacks urdf/root/tip, or a known key has the wrong type or
+// value (gravity not 3 finite numbers, joints not an array of objects, k_i not finite,
+// rotor_inertia negative, a payload with a negative or non-finite mass, a com not 3 numbers, an
+// inertia not 6 numbers or not physical, a payload named "none", "active_payload" naming no
+// payload). An unknown key (top level, in a "joints" entry or a payload) that is a near miss of
+// a known one (the same but for case, '_' or '-'; one edit from a known key of 4 or more
+// characters, two from one of 8 or more: "joint", "Joints", "ki") is an error naming the key
+// it resembles, since its section would silently keep its defaults; any other unknown key is
+// reported once through momentum::warn.
 Profile load_profile(const std::filesystem::path& path);
 
 // Same as load_profile for a document already in memory; `path` is used to resolve the URDF

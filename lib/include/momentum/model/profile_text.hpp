@@ -25,7 +25,8 @@ namespace momentum::model {
 //   - new members are appended at the end of their object, in the new value's key order,
 //     indented like their siblings;
 //   - an object that loses a member is rewritten whole (its comments are lost).
-// Throws nlohmann::json::parse_error when `text` is not JSON with comments.
+// A UTF-8 byte order mark at the start is kept. Throws nlohmann::json::parse_error when `text` is
+// not JSON with comments.
 std::string edit_profile_text(const std::string& text, const nlohmann::json& updated);
 
 // Formats `value` as the profile's own hand-written style: 2-space indent, one member or element

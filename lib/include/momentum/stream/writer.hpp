@@ -25,7 +25,9 @@ struct WriterOptions {
 
 class Writer {
  public:
-  // Opens `path` ("-" or "" for stdout; a file is created or truncated). Throws momentum::Error.
+  // Opens `path` ("-" or "" for stdout; a file is created or truncated) with core::OutputFile.
+  // Throws momentum::Error naming the path when it cannot be opened (a missing folder, a
+  // folder, a read-only file, a symlink loop) or is an input of the run.
   static std::unique_ptr<Writer> open(const std::string& path, WriterOptions options = {});
   ~Writer();
   Writer(const Writer&) = delete;
