@@ -3,6 +3,7 @@
 // decoded signal). The work is can::Converter's; this file is the command line.
 #include <signal.h>
 
+#include <climits>
 #include <csignal>
 #include <cstdio>
 #include <optional>
@@ -11,6 +12,7 @@
 
 #include "momentum/can/convert.hpp"
 #include "momentum/cli/tool.hpp"
+#include "momentum/cli/whole_number.hpp"
 #include "momentum/stream/format.hpp"
 
 using namespace momentum;
@@ -54,7 +56,7 @@ int main(int argc, char** argv) {
       ->type_name("SECONDS");
   app.add_option("--hold", o.hold, "reuse a missing value for at most N cycles (default 0: write nan)")
       ->type_name("N")
-      ->check(cli::whole_number());
+      ->check(cli::whole_number_in(0, INT_MAX));
   app.add_option("--timestamps", timestamps, "default-format timestamps: auto, absolute, delta (-t d) or zero (-t z)")
       ->type_name("MODE");
   app.add_option("--bus", o.text.interface, "keep only frames captured on this interface (candump any)")->type_name("IFACE");

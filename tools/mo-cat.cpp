@@ -1,11 +1,13 @@
 // mo-cat: convert sample streams between CSV and binary, select, rename and scale columns,
 // mend timing faults, or describe a log (--stats). The work is stream::cat()'s; this file is
 // the command line.
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/cli/whole_number.hpp"
 #include "momentum/core/file.hpp"
 #include "momentum/stream/cat.hpp"
 #include "momentum/stream/columns.hpp"
@@ -28,14 +30,20 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   app.add_flag("--zero-time", o.zero_time, "shift t so that the first row is at 0");
   app.add_flag("--repair", o.repair, "drop exact duplicate rows and rows out of time order, and say which");
-  app.add_option("--head", o.head, "stop after N rows")->type_name("N")->check(cli::whole_number());
+  app.add_option("--head", o.head, "stop after N rows")->type_name("N")->check(cli::whole_number_in(0, UINT64_MAX));
   app.add_flag("--stats", stats, "describe the stream on stdout instead of copying it");
   app.add_option("--stats-format", stats_format, "--stats as text (default) or jsonl: one JSON object")
       ->check(CLI::IsMember({"text", "jsonl"}));
 
   return tool.run(argc, argv, [&] {
     o.inputs = tool.inputs();
-    if (!names.empty()) o.names = stream::expand_column_list(names);
+    if (!names.empty()) {
+      try {
+        o.names = stream::expand_column_list(names);
+      } catch (const Error& e) {
+        throw cli::UsageError(std::string("--names: ") + e.what());
+      }
+    }
     if (stats) o.stats = stats_format == "jsonl" ? stream::CatOptions::Stats::jsonl : stream::CatOptions::Stats::text;
     if (o.head && *o.head == 0) tool.set_no_rows_policy(false);  // the header alone was asked for
     stream::CatResult result;

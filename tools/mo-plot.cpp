@@ -1,10 +1,11 @@
-// mo-plot: residuals against thresholds, events and true contacts, to PNG or SVG via gnuplot.
+// mo-plot: residuals against thresholds, events and true contacts, to PNG, SVG or PDF via gnuplot.
 #include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/cli/whole_number.hpp"
 #include "momentum/detect/plot_stream.hpp"
 #include "momentum/eval/score.hpp"
 #include "momentum/stream/error.hpp"
@@ -12,7 +13,7 @@
 using namespace momentum;
 
 int main(int argc, char** argv) {
-  cli::Tool tool("mo-plot", "Residuals against thresholds, with events and true contacts, to PNG or SVG.");
+  cli::Tool tool("mo-plot", "Residuals against thresholds, with events and true contacts, to PNG, SVG or PDF.");
   tool.app().footer("\nExample:\n  mo-plot -p arm.json --events events.csv -o plot.png observed.csv\n\nMore: man mo-plot");
   tool.add_inputs("input stream with r<j> and/or mu<j> (- or none: stdin)");
   tool.add_profile(/*required=*/false);
@@ -20,9 +21,9 @@ int main(int argc, char** argv) {
   bool script_only = false;
   detect::PlotOptions options;
   auto& app = tool.app();
-  app.add_option("-o,--output", output, "image file to write (.png or .svg)")->type_name("FILE")->required();
-  app.add_option("--format", format, "png or svg (default: from the file name, else png)")
-      ->check(CLI::IsMember({"png", "svg"}));
+  app.add_option("-o,--output", output, "image file to write (.png, .svg or .pdf)")->type_name("FILE")->required();
+  app.add_option("--format", format, "png, svg or pdf (default: from the file name, else png)")
+      ->check(CLI::IsMember({"png", "svg", "pdf"}));
   app.add_option("--events", events_path, "events of mo-detect to mark")->type_name("FILE");
   app.add_option("--truth", truth_path, "true contacts (mo-sim --truth) to shade")->type_name("FILE");
   app.add_option("--signal", signals_option, "mu, r or r,mu (default: those the stream has, r first)")
@@ -30,10 +31,15 @@ int main(int argc, char** argv) {
   app.add_option("--from", options.from, "start of the time window, s")->type_name("S");
   app.add_option("--to", options.to, "end of the time window, s")->type_name("S");
   app.add_option("--title", options.title, "title above the panels")->type_name("TEXT");
-  app.add_option("--width", options.width, "image width in pixels (1400)")->type_name("PX");
-  app.add_option("--panel-height", options.panel_height, "height of one joint's row in pixels (220)")->type_name("PX");
-  app.add_option("--max-points", options.max_points, "time buckets per panel, min and max of each (2000)")
-      ->type_name("N");
+  app.add_option("--width", options.width, "image width in pixels, 200 to 20000 (1400)")
+      ->type_name("PX")
+      ->check(cli::whole_number_in(detect::kMinPlotWidth, detect::kMaxPlotWidth));
+  app.add_option("--panel-height", options.panel_height, "height of one joint's row in pixels, 80 to 5000 (220)")
+      ->type_name("PX")
+      ->check(cli::whole_number_in(detect::kMinPanelHeight, detect::kMaxPanelHeight));
+  app.add_option("--max-points", options.max_points, "time buckets per panel, min and max of each, 10 to 100000 (2000)")
+      ->type_name("N")
+      ->check(cli::whole_number_in(detect::kMinPlotPoints, detect::kMaxPlotPoints));
   std::string view_name = "time";
   app.add_option("--view", view_name, "time (default), events, mu-dq, histogram or force (no stream)")
       ->check(CLI::IsMember({"time", "events", "mu-dq", "histogram", "force"}));
@@ -51,11 +57,12 @@ int main(int argc, char** argv) {
   };
   return tool.run(argc, argv, [&] {
     if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
-    if (format.empty()) {
-      const bool svg = output.size() > 4 && output.compare(output.size() - 4, 4, ".svg") == 0;
-      format = svg ? "svg" : "png";
+    try {
+      detect::check_gnuplot_text(output, "the output name");
+      options.format = detect::plot_format(output, format);
+    } catch (const Error& e) {
+      throw cli::UsageError(e.what());
     }
-    options.format = format;
     std::string why;
     if (!options.IsValid(&why)) throw cli::UsageError(why);
     if (view_name == "force") {

@@ -199,7 +199,17 @@ TEST(Cycles, InvalidOptions) {
   std::string why;
   options.boundary = CycleBoundary::period;
   EXPECT_FALSE(options.IsValid(&why));
-  EXPECT_EQ(why, "the cycle period must be a positive number of seconds");
+  EXPECT_EQ(why, "the cycle period must be 1e-06 to 1e+06 s, not 0");
+  // 1e10 s is 1e19 ns, beyond 64 bits: it once rounded to a 1 ns period, one row per frame.
+  options.period = 1e10;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_EQ(why, "the cycle period must be 1e-06 to 1e+06 s, not 1e+10");
+  options.period = NAN;
+  EXPECT_FALSE(options.IsValid(&why));
+  options.period = 1e-7;  // finer than candump's microseconds
+  EXPECT_FALSE(options.IsValid(&why));
+  options.period = kMaxPeriod;
+  EXPECT_TRUE(options.IsValid(&why));
   options.period = 0.001;
   options.hold = -1;
   EXPECT_FALSE(options.IsValid(&why));

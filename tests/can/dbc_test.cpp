@@ -30,7 +30,7 @@ BO_ 385 Joint1_TPDO: 8 Drive
  SG_ Current : 48|16@1- (0.001,-0.5) [-20|20] "A"  Host
 
 BO_ 2147484033 Big: 8 Drive
- SG_ Word : 7|16@0+ (1,0) [0|65535] "" Host
+ SG_ Word : 55|16@0+ (1,0) [0|65535] "" Host
  SG_ Nibble : 19|4@0+ (1,0) [0|15] "" Host
  SG_ Across : 5|10@0- (1,0) [0|0] "" Host
 
@@ -97,8 +97,8 @@ TEST(Dbc, IntelAndMotorolaBitsByHand) {
   const std::uint8_t payload[8] = {0x12, 0x34, 0x56, 0x78, 0x9A, 0xBC, 0xDE, 0xF0};
   std::memcpy(f.data, payload, 8);
   const Message& big = *db.find_name("Big");
-  // Motorola 7|16: MSB is bit 7 of byte 0, the 16 bits are bytes 0 and 1 in order.
-  EXPECT_EQ(extract_bits(big.signals[static_cast<std::size_t>(big.find("Word"))], f.data), 0x1234U);
+  // Motorola 55|16: MSB is bit 7 of byte 6, the 16 bits are bytes 6 and 7 in order.
+  EXPECT_EQ(extract_bits(big.signals[static_cast<std::size_t>(big.find("Word"))], f.data), 0xDEF0U);
   // Motorola 19|4: MSB bit 3 of byte 2 (0x56 = 0101 0110): the low nibble 0x6.
   EXPECT_EQ(extract_bits(big.signals[static_cast<std::size_t>(big.find("Nibble"))], f.data), 0x6U);
   // Motorola 5|10: bits 5..0 of byte 0 (01 0010 -> 010010) then bits 7..4 of byte 1 (0011):
@@ -119,11 +119,12 @@ TEST(Dbc, IntelAndMotorolaBitsByHand) {
 TEST(Dbc, CantoolsSignalOrder) {
   const Database db = Database::parse(kSmall, "small.dbc");
   const Message& big = *db.find_name("Big");
-  // By the stream position of the MSB: Word (7 -> 0), Across (5 -> 2), Nibble (19 -> 20).
+  // By the stream position of the MSB: Across (5 -> 2), Nibble (19 -> 20), Word (55 -> 48),
+  // not by start bit as written (5, 19, 55 would agree; 7|16 before 5|10 would not).
   ASSERT_EQ(big.signals.size(), 3U);
-  EXPECT_EQ(big.signals[0].name, "Word");
-  EXPECT_EQ(big.signals[1].name, "Across");
-  EXPECT_EQ(big.signals[2].name, "Nibble");
+  EXPECT_EQ(big.signals[0].name, "Across");
+  EXPECT_EQ(big.signals[1].name, "Nibble");
+  EXPECT_EQ(big.signals[2].name, "Word");
 }
 
 TEST(Dbc, Multiplexing) {
@@ -231,6 +232,53 @@ TEST(Dbc, ErrorsNameTheLine) {
                "bad.dbc:3: value description for a raw value that is not a 64-bit integer");
   expect_error("BO_ 1 M: 8 X\n SG_ S : 0|8@1+ (1,0) [0|0] \"\" X\nVAL_ 1 S 1.5 \"half\" ;\n",
                "bad.dbc:3: value description for a raw value that is not a 64-bit integer");
+}
+
+// Two signals that can be in one frame and share a payload bit decode garbage for at least one
+// of them: refused at the line of the later one. Signals that one multiplexer selects with
+// different values share bits legitimately.
+TEST(Dbc, OverlappingSignalsAreRefusedUnlessMultiplexedApart) {
+  // Intel 0|16 is bytes 0-1; Intel 12|8 is bits 4-7 of byte 1 and 0-3 of byte 2: first shared
+  // bit is byte 1 bit 4.
+  expect_error("BO_ 1 M: 8 X\n SG_ A : 0|16@1+ (1,0) [0|0] \"\" X\n SG_ B : 12|8@1+ (1,0) [0|0] \"\" X\n",
+               "bad.dbc:3: signal B overlaps signal A (line 2) of message M at byte 1 bit 4 (both can be in one frame)");
+  // Motorola 7|8 is all of byte 0; Intel 7|1 is its top bit.
+  expect_error("BO_ 1 M: 8 X\n SG_ A : 7|8@0+ (1,0) [0|0] \"\" X\n SG_ B : 7|1@1+ (1,0) [0|0] \"\" X\n",
+               "bad.dbc:3: signal B overlaps signal A (line 2) of message M at byte 0 bit 7 (both can be in one frame)");
+  // Motorola 15|16 is bytes 1-2, Motorola 23|4 the high nibble of byte 2.
+  expect_error("BO_ 1 M: 8 X\n SG_ A : 15|16@0+ (1,0) [0|0] \"\" X\n SG_ B : 23|4@0+ (1,0) [0|0] \"\" X\n",
+               "bad.dbc:3: signal B overlaps signal A (line 2) of message M at byte 2 bit 4 (both can be in one frame)");
+  // A multiplexed signal over its own multiplexer is in every frame that selects it.
+  expect_error("BO_ 1 M: 8 X\n SG_ S M : 0|8@1+ (1,0) [0|0] \"\" X\n SG_ A m1 : 4|8@1+ (1,0) [0|0] \"\" X\n",
+               "bad.dbc:3: signal A overlaps signal S (line 2) of message M at byte 0 bit 4 (both can be in one frame)");
+  // One multiplexer value, two signals on the same bits.
+  expect_error("BO_ 1 M: 8 X\n SG_ S M : 0|8@1+ (1,0) [0|0] \"\" X\n SG_ A m1 : 8|8@1+ (1,0) [0|0] \"\" X\n"
+               " SG_ B m1 : 8|8@1+ (1,0) [0|0] \"\" X\n",
+               "bad.dbc:4: signal B overlaps signal A (line 3) of message M at byte 1 bit 0 (both can be in one frame)");
+  // An always-present signal over a multiplexed one.
+  expect_error("BO_ 1 M: 8 X\n SG_ S M : 0|8@1+ (1,0) [0|0] \"\" X\n SG_ A m1 : 8|8@1+ (1,0) [0|0] \"\" X\n"
+               " SG_ C : 15|1@1+ (1,0) [0|0] \"\" X\n",
+               "bad.dbc:4: signal C overlaps signal A (line 3) of message M at byte 1 bit 7 (both can be in one frame)");
+  // Extended multiplexing: ranges 1-3 and 3-5 of one switch meet at 3.
+  expect_error("BO_ 1 M: 8 X\n SG_ S M : 0|8@1+ (1,0) [0|0] \"\" X\n SG_ A m1 : 8|8@1+ (1,0) [0|0] \"\" X\n"
+               " SG_ B m4 : 8|8@1+ (1,0) [0|0] \"\" X\nSG_MUL_VAL_ 1 A S 1-3;\nSG_MUL_VAL_ 1 B S 3-5;\n",
+               "bad.dbc:4: signal B overlaps signal A (line 3) of message M at byte 1 bit 0 (both can be in one frame)");
+
+  // Accepted: different values of one multiplexer (plain and extended, disjoint ranges), and
+  // signals selected by two branches of a nested multiplexer.
+  EXPECT_NO_THROW(Database::parse("BO_ 1 M: 8 X\n SG_ S M : 0|8@1+ (1,0) [0|0] \"\" X\n"
+                                  " SG_ A m1 : 8|8@1+ (1,0) [0|0] \"\" X\n SG_ B m2 : 8|16@1+ (1,0) [0|0] \"\" X\n",
+                                  "ok.dbc"));
+  EXPECT_NO_THROW(Database::parse("BO_ 1 M: 8 X\n SG_ S M : 0|8@1+ (1,0) [0|0] \"\" X\n"
+                                  " SG_ A m1 : 8|8@1+ (1,0) [0|0] \"\" X\n SG_ B m4 : 8|8@1+ (1,0) [0|0] \"\" X\n"
+                                  "SG_MUL_VAL_ 1 A S 1-3;\nSG_MUL_VAL_ 1 B S 4-5;\n",
+                                  "ok.dbc"));
+  EXPECT_NO_THROW(Database::parse("BO_ 1 M: 8 X\n SG_ S M : 0|8@1+ (1,0) [0|0] \"\" X\n"
+                                  " SG_ T m1M : 8|8@1+ (1,0) [0|0] \"\" X\n SG_ U m2 : 8|8@1+ (1,0) [0|0] \"\" X\n"
+                                  " SG_ A m5 : 16|8@1+ (1,0) [0|0] \"\" X\n SG_ B m3 : 16|8@1+ (1,0) [0|0] \"\" X\n"
+                                  "SG_MUL_VAL_ 1 T S 1-1;\nSG_MUL_VAL_ 1 U S 2-2;\n"
+                                  "SG_MUL_VAL_ 1 A T 5-5;\nSG_MUL_VAL_ 1 B S 3-3;\n",
+                                  "ok.dbc"));
 }
 
 TEST(Dbc, LoadNamesTheFile) {

@@ -4,6 +4,8 @@
 // labelled pulse widths.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <cmath>
 #include <random>
 #include <string>
@@ -15,6 +17,7 @@
 #include "momentum/contact/locate.hpp"
 #include "momentum/contact/window.hpp"
 #include "momentum/core/error.hpp"
+#include "momentum/model/collision.hpp"
 #include "momentum/model/dynamics.hpp"
 
 namespace {
@@ -246,6 +249,40 @@ TEST(Locate, PointOnTheUrdfsCollisionShape) {
   const mc::Location guess = fallback.locate(samples, 4, 6, mc::LinkChoice::proximal_accepted);
   const Eigen::Vector3d guessed = cylinder.placement.rotation.transpose() * (guess.point - cylinder.placement.translation);
   EXPECT_LE(std::hypot(guessed.x(), guessed.y()), 0.05 + 1e-9);
+}
+
+// A mesh that cannot be read (a package:// name without ROS_PACKAGE_PATH) was dropped
+// silently: the locator now says which, what to set, and which links fall back, once per
+// process however many locators are built.
+TEST(Locate, UnreadMeshesAreSaidOnce) {
+  mm::Model model = load("ur5");
+  for (auto& body : model.bodies) body.unread_meshes.clear();
+  model.bodies[4].unread_meshes = {"package://said_once/meshes/wrist2.stl", "package://said_once/meshes/b.stl"};
+  model.bodies[5].unread_meshes = {"package://said_once/meshes/wrist3.stl"};
+  ::unsetenv("ROS_PACKAGE_PATH");
+  std::vector<std::string> warnings;
+  auto previous = momentum::set_warning_sink([&](std::string_view m) { warnings.emplace_back(m); });
+  mc::Locator first(model, Eigen::VectorXd::Constant(6, 0.05));
+  mc::Locator second(model, Eigen::VectorXd::Constant(6, 0.05));
+  momentum::set_warning_sink(previous);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], model.urdf.string() +
+                             ": collision mesh 'package://said_once/meshes/wrist2.stl' not found: ROS_PACKAGE_PATH is "
+                             "not set; set it to the folder that holds the package 'said_once'; 2 more cannot be read "
+                             "either; contacts on '" +
+                             model.bodies[4].name + "', '" + model.bodies[5].name +
+                             "' are located around the link segment instead of on the meshes");
+  // All read: nothing to say.
+  for (auto& body : model.bodies) body.unread_meshes.clear();
+  EXPECT_EQ(mm::unread_meshes_warning(model), "");
+  ::setenv("ROS_PACKAGE_PATH", "/nonexistent/ws", 1);
+  model.bodies[0].unread_meshes = {"package://said_once/x.stl"};
+  EXPECT_EQ(mm::unread_meshes_warning(model),
+            model.urdf.string() + ": collision mesh 'package://said_once/x.stl' not found under "
+                                  "ROS_PACKAGE_PATH=/nonexistent/ws: add the folder that holds the package 'said_once'; "
+                                  "contacts on '" + model.bodies[0].name +
+                                  "' are located around the link segment instead of on the meshes");
+  ::unsetenv("ROS_PACKAGE_PATH");
 }
 
 TEST(Locate, FewJointsGivePartialForce) {

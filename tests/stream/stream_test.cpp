@@ -8,6 +8,10 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 #include <random>
 #include <sstream>
 
@@ -381,4 +385,129 @@ TEST(Writer, AnOutputThatIsTheInputBeingReadIsRefusedAndTheInputKept) {
   }
   EXPECT_EQ(read_file(path), "t,q1\n0,1\n1,2\n");
   std::remove(path.c_str());
+}
+
+// A list expands to at most kMaxListedColumns names, checked before expanding: "q1-20000000"
+// once took a gigabyte before "missing column". A column listed twice is found.
+TEST(Columns, ListsAreBoundedAndDuplicatesFound) {
+  EXPECT_EQ(ms::expand_column_list("q1-65536").size(), ms::kMaxListedColumns);
+  EXPECT_THROW(ms::expand_column_list("t,q1-65536"), momentum::Error);
+  try {
+    ms::expand_column_list("q1-20000000");
+    FAIL();
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), "range 'q1-20000000' in column list is too long (a list names at most 65536 columns)");
+  }
+  // Plain names count too: 65,536 of them pass, one more does not.
+  std::string many = "c0";
+  for (std::size_t i = 1; i < ms::kMaxListedColumns; ++i) many += ",c" + std::to_string(i);
+  EXPECT_EQ(ms::expand_column_list(many).size(), ms::kMaxListedColumns);
+  EXPECT_THROW(ms::expand_column_list(many + ",x"), momentum::Error);
+
+  EXPECT_EQ(ms::first_duplicate({"t", "q1", "q2"}), std::nullopt);
+  EXPECT_EQ(ms::first_duplicate({"t", "q1", "t", "q1"}), std::optional<std::string>("t"));
+}
+
+// Text from a binary stream (or any caller) written as CSV cannot become a data row, a header
+// or another column order: a comment's line breaks start new comment lines, and a column name
+// that holds a separator, a quote or a leading '#' is quoted.
+TEST(Stream, CommentsAndNamesCannotBecomeRowsOrHeadersInCsv) {
+  const std::string bin = temp_path("inject.bin"), csv = temp_path("inject.csv");
+  const std::vector<std::string> names = {"t", "q,1", "#x", "say \"hi\"", " pad", "a;b"};
+  {
+    auto out = ms::Writer::open(bin, {ms::Encoding::binary, false});
+    out->comment("header comment\nq1,t\r\n9,9");  // would have replaced the header
+    out->header(names);
+    const double row[6] = {0, 1, 2, 3, 4, 5};
+    out->row(row);
+    out->comment("row comment\n7,7,7,7,7,7\rlast");  // would have been a data row
+    const double row2[6] = {1, 1, 2, 3, 4, 5};
+    out->row(row2);
+    out->close();
+  }
+  {
+    ms::ReaderOptions as_written;
+    as_written.time_order = false;  // comments in place between the rows
+    auto in = ms::Reader::open(bin, as_written);
+    auto out = ms::Writer::open(csv, {ms::Encoding::csv, false});
+    for (const auto& c : in->leading_comments()) out->comment(c);
+    out->header(in->columns());
+    in->on_comment([&](std::string_view c) { out->comment(c); });
+    while (const double* row = in->next()) out->row(row);
+    out->close();
+  }
+  EXPECT_EQ(read_file(csv),
+            "#header comment\n#q1,t\n#9,9\n"
+            "t,\"q,1\",\"#x\",\"say \"\"hi\"\"\",\" pad\",\"a;b\"\n"
+            "0,1,2,3,4,5\n"
+            "#row comment\n#7,7,7,7,7,7\n#last\n"
+            "1,1,2,3,4,5\n");
+  ms::ReaderOptions as_written;
+  as_written.time_order = false;
+  auto in = ms::Reader::open(csv, as_written);
+  EXPECT_EQ(in->columns(), names);
+  EXPECT_EQ(in->leading_comments(), (std::vector<std::string>{"header comment", "q1,t", "9,9"}));
+  std::vector<std::string> comments;
+  in->on_comment([&](std::string_view c) { comments.emplace_back(c); });
+  auto rows = read_all(*in);
+  EXPECT_EQ(rows, (std::vector<std::vector<double>>{{0, 1, 2, 3, 4, 5}, {1, 1, 2, 3, 4, 5}}));
+  EXPECT_EQ(comments, (std::vector<std::string>{"row comment", "7,7,7,7,7,7", "last"}));
+  EXPECT_EQ(in->rows_skipped(), 0u);
+
+  // A name with a line break cannot be a CSV header field at all: refused, naming it.
+  auto out = ms::Writer::open(temp_path("refused.csv"), {ms::Encoding::csv, false});
+  try {
+    out->header({"t", "q1\nevil"});
+    FAIL();
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), temp_path("refused.csv") + ": column 2 name 'q1\\x0Aevil' holds a control character, which a CSV header cannot") << e.what();
+  }
+}
+
+// The separator is detected from the header: comma, semicolon, tab or blanks; fields may be
+// quoted in the header and in rows. A semicolon-separated export once gave "missing column 't'".
+TEST(Stream, SeparatorIsDetectedAndQuotedFieldsRead) {
+  CapturedWarnings warnings;
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"semicolon", "t;q1;\"dq 1\"\n0;1.5;-2\n0.5;\"2.5\";3e-3\n"},
+      {"tab", "t\tq1\tdq 1\n0\t1.5\t-2\n0.5\t2.5\t3e-3\n"},
+      {"blanks", "  t   q1  \"dq 1\"\n 0 1.5   -2\n0.5\t2.5 3e-3  \n"},
+      {"quoted", "\"t\",\"q1\",\"dq 1\"\n\"0\",\"1.5\",\"-2\"\n0.5, 2.5 ,\"3e-3\"\n"},
+      {"crlf", "t;q1;dq 1\r\n0;1.5;-2\r\n0.5;2.5;3e-3\r\n"},
+  };
+  for (const auto& [name, content] : files) {
+    const std::string path = temp_path(name + ".csv");
+    write_file(path, content);
+    auto in = ms::Reader::open(path);
+    EXPECT_EQ(in->columns(), (std::vector<std::string>{"t", "q1", "dq 1"})) << name;
+    EXPECT_EQ(read_all(*in), (std::vector<std::vector<double>>{{0, 1.5, -2}, {0.5, 2.5, 3e-3}})) << name;
+  }
+  EXPECT_TRUE(warnings.messages.empty());
+
+  // What cannot be read says what it saw: a decimal comma, a quote left open, a separator
+  // that is none of the four.
+  const std::string comma = temp_path("decimal_comma.csv");
+  write_file(comma, "t;q1\n0;1,5\n0;\"1\n");
+  auto in = ms::Reader::open(comma);
+  EXPECT_TRUE(read_all(*in).empty());
+  ASSERT_EQ(warnings.messages.size(), 2u);
+  EXPECT_EQ(warnings.messages[0],
+            comma + ":2: bad number '1,5' in column 'q1' (a decimal comma? numbers are read with a decimal point)");
+  EXPECT_EQ(warnings.messages[1], comma + ":3: unterminated quote");
+  const std::string pipe = temp_path("pipe.csv");
+  write_file(pipe, "t|q1\n0|1\n");
+  try {
+    ms::Reader::open(pipe)->require("t");
+    FAIL();
+  } catch (const momentum::Error& e) {
+    EXPECT_EQ(std::string(e.what()), pipe + ": missing column 't' (the header is one column, 't|q1': columns are "
+                                            "separated by commas, semicolons, tabs or blanks)");
+  }
+  // Headerless input with --names: the separator of the first row.
+  const std::string vendor = temp_path("vendor_semicolon.csv");
+  write_file(vendor, "1;2;3\n4;5;6\n");
+  ms::ReaderOptions options;
+  options.names = {"t", "_", "q1"};
+  auto named = ms::Reader::open(vendor, options);
+  EXPECT_EQ(read_all(*named), (std::vector<std::vector<double>>{{1, 3}, {4, 6}}));
 }

@@ -7,6 +7,9 @@
 #include <fstream>
 #include <limits>
 #include <random>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
@@ -188,6 +191,40 @@ TEST(TimeOrder, ARepeatedTimeAndAnExactDuplicateAreDropped) {
   EXPECT_EQ(kept, (std::vector<double>{0, 1, 2, 3, 4}));
   EXPECT_EQ(order.summary().duplicates, 1u);
   EXPECT_EQ(order.summary().out_of_order, 1u);
+}
+
+// A row whose time equals its neighbour's is a repeated time, said as such: it was once
+// reported as "time out of order: t=5 before t=5". Both at the start (against the next row)
+// and later (against the last kept row).
+TEST(TimeOrder, ARepeatedTimeIsNamedAsSuch) {
+  for (const auto& times : std::vector<std::vector<double>>{{5, 5, 6, 7, 8}, {3, 4, 5, 5, 6, 7}}) {
+    std::vector<std::pair<ms::TimeFault, std::string>> drops;
+    ms::TimeOrder order(2, 0, [&](std::uint64_t, ms::TimeFault fault, const std::string& detail) {
+      drops.emplace_back(fault, detail);
+    });
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      const double row[2] = {times[i], static_cast<double>(i)};
+      order.push(row, i + 1);
+    }
+    order.finish();
+    ASSERT_EQ(drops.size(), 1u);
+    EXPECT_EQ(drops[0].first, ms::TimeFault::repeated_time);
+    EXPECT_EQ(drops[0].second, "t=5");
+    EXPECT_EQ(ms::time_fault_name(drops[0].first), "repeated time");
+    EXPECT_EQ(order.summary().out_of_order, 1u);  // counted with the rows out of order
+  }
+  // A time that only goes back is still out of order, with its neighbours.
+  std::vector<std::string> details;
+  ms::TimeOrder order(2, 0, [&](std::uint64_t, ms::TimeFault fault, const std::string& detail) {
+    EXPECT_EQ(fault, ms::TimeFault::out_of_order);
+    details.push_back(detail);
+  });
+  for (double t : {1.0, 2.0, 3.0, 4.0, 2.5, 5.0, 6.0}) {
+    const double row[2] = {t, t};
+    order.push(row, 0);
+  }
+  order.finish();
+  EXPECT_EQ(details, (std::vector<std::string>{"t=2.5 after t=4, next t=5"}));
 }
 
 TEST(TimeOrder, AChangeOfRateLosesNoRow) {

@@ -127,7 +127,8 @@ bool ConvertOptions::IsValid(std::string* why) const {
     }
   }
   if (hold < 0) return no("hold must be 0 or more cycles");
-  if (period && !(*period > 0 && std::isfinite(*period))) return no("the cycle period must be a positive number of seconds");
+  std::string period_why;
+  if (period && !valid_period(*period, &period_why)) return no("--period: " + period_why);
   return true;
 }
 

@@ -9,6 +9,7 @@
 #include <map>
 #include <sstream>
 
+#include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -101,14 +102,21 @@ std::vector<ColumnSource> columns_from_signal_names(const Database& db) {
   return out;
 }
 
+bool valid_period(double period, std::string* why) {
+  if (period >= kMinPeriod && period <= kMaxPeriod) return true;  // false for NaN
+  if (why != nullptr)
+    *why = "the cycle period must be " + core::significant(kMinPeriod, 3) + " to " + core::significant(kMaxPeriod, 3) +
+           " s, not " + core::significant(period, 6);
+  return false;
+}
+
 bool CycleOptions::IsValid(std::string* why) const {
   auto no = [&](const char* message) {
     if (why != nullptr) *why = message;
     return false;
   };
   if (hold < 0) return no("hold must be 0 or more cycles");
-  if (boundary == CycleBoundary::period && !(period > 0 && std::isfinite(period)))
-    return no("the cycle period must be a positive number of seconds");
+  if (boundary == CycleBoundary::period) return valid_period(period, why);
   return true;
 }
 

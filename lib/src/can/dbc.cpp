@@ -1,6 +1,7 @@
 #include "momentum/can/dbc.hpp"
 
 #include <algorithm>
+#include <bitset>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -186,6 +187,10 @@ class DbcParser {
   std::string_view name_;
   std::uint32_t line_ = 1;
   void finish();
+  // Throws `file:line: signal B overlaps signal A ...` when two signals of `m` that can be in
+  // one frame (not selected by different values of one multiplexer) share a payload bit:
+  // decoding would give garbage for at least one of them. cantools refuses the same (strict).
+  void refuse_overlaps(const Message& m) const;
 
   Database parts_;
   std::map<std::uint64_t, std::size_t> by_id_;
@@ -557,6 +562,75 @@ Extraction compute_extraction(const Signal& s, std::uint32_t bytes, std::string_
 
 }  // namespace
 
+namespace {
+
+constexpr std::size_t kMaxPayloadBits = 8 * kMaxPayload;
+
+// The payload bits a signal occupies, numbered byte * 8 + bit (bit 0 the least significant).
+std::bitset<kMaxPayloadBits> signal_bits(const Signal& s) {
+  std::bitset<kMaxPayloadBits> bits;
+  for (std::uint32_t k = 0; k < s.length; ++k) {
+    std::uint32_t bit;
+    if (s.byte_order == ByteOrder::little_endian) {
+      bit = s.start_bit + k;
+    } else {  // Motorola: walk the big-endian bit stream from the MSB, map back to byte and bit
+      const std::uint32_t position = (s.start_bit / 8) * 8 + (7 - s.start_bit % 8) + k;
+      bit = (position / 8) * 8 + (7 - position % 8);
+    }
+    if (bit < kMaxPayloadBits) bits.set(bit);
+  }
+  return bits;
+}
+
+// True when signals a and b of `m` can be present in one frame: unless some multiplexer selects
+// them through different branches whose value ranges do not meet.
+bool can_coexist(const Message& m, std::size_t a, std::size_t b) {
+  // The chain from each signal up to its root: the signal, its selector, that one's, ...
+  auto chain = [&](std::size_t i) {
+    std::vector<std::size_t> out{i};
+    while (m.signals[out.back()].mux_parent >= 0) out.push_back(static_cast<std::size_t>(m.signals[out.back()].mux_parent));
+    return out;
+  };
+  const std::vector<std::size_t> up_a = chain(a), up_b = chain(b);
+  for (std::size_t ia = 0; ia < up_a.size(); ++ia) {
+    for (std::size_t ib = 0; ib < up_b.size(); ++ib) {
+      if (up_a[ia] != up_b[ib]) continue;
+      // The nearest common selector (or one signal selects the other: both present at once).
+      if (ia == 0 || ib == 0) return true;
+      const auto& ranges_a = m.signals[up_a[ia - 1]].mux_ranges;
+      const auto& ranges_b = m.signals[up_b[ib - 1]].mux_ranges;
+      for (const auto& ra : ranges_a)
+        for (const auto& rb : ranges_b)
+          if (ra.first <= rb.second && rb.first <= ra.second) return true;
+      return false;
+    }
+  }
+  return true;  // separate roots: both always present
+}
+
+}  // namespace
+
+void DbcParser::refuse_overlaps(const Message& m) const {
+  std::vector<std::bitset<kMaxPayloadBits>> bits;
+  bits.reserve(m.signals.size());
+  for (const Signal& s : m.signals) bits.push_back(signal_bits(s));
+  for (std::size_t b = 1; b < m.signals.size(); ++b) {
+    for (std::size_t a = 0; a < b; ++a) {
+      const auto shared = bits[a] & bits[b];
+      if (shared.none() || !can_coexist(m, a, b)) continue;
+      std::size_t first = 0;
+      while (!shared.test(first)) ++first;
+      const Signal& later = m.signals[a].line > m.signals[b].line ? m.signals[a] : m.signals[b];
+      const Signal& earlier = &later == &m.signals[a] ? m.signals[b] : m.signals[a];
+      throw Error(located(name_, later.line,
+                          "signal " + later.name + " overlaps signal " + earlier.name + " (line " +
+                              std::to_string(earlier.line) + ") of message " + m.name + " at byte " +
+                              std::to_string(first / 8) + " bit " + std::to_string(first % 8) +
+                              " (both can be in one frame)"));
+    }
+  }
+}
+
 int Message::find(std::string_view signal_name) const {
   for (std::size_t i = 0; i < signals.size(); ++i)
     if (signals[i].name == signal_name) return static_cast<int>(i);
@@ -619,6 +693,7 @@ void DbcParser::finish() {
         at = m.signals[static_cast<std::size_t>(at)].mux_parent;
       }
     }
+    refuse_overlaps(m);
     // cantools lists signals by start bit (Motorola signals by the stream position of their
     // MSB), ties in file order; keep its order and renumber the parent indices.
     const std::size_t n = m.signals.size();

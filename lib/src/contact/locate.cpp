@@ -3,11 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
+#include <set>
+#include <string>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "momentum/core/error.hpp"
+#include "momentum/model/collision.hpp"
 
 namespace momentum::contact {
 
@@ -215,6 +219,14 @@ Locator::Locator(const model::Model& model, Eigen::VectorXd sigma, LocatorOption
   for (int body = 0; body < model.nq; ++body) {
     candidates_.push_back(candidates(body, kPointsAround));
     coarse_candidates_.push_back(candidates(body, kPointsAroundAtDetection));
+  }
+  // Meshes that could not be read cost location precision, which the user can fix (a
+  // package:// without ROS_PACKAGE_PATH): say so once per process, not once per locator.
+  if (const std::string text = model::unread_meshes_warning(model); !text.empty()) {
+    static std::mutex mutex;
+    static std::set<std::string> said;
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (said.insert(text).second) warn(text);
   }
 }
 

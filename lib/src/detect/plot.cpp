@@ -3,29 +3,73 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <cctype>
+#include <iterator>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 
 #include "momentum/core/number.hpp"
+#include "momentum/core/text.hpp"
 #include "momentum/detect/truth.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
 
 namespace momentum::detect {
 
+void check_gnuplot_text(std::string_view text, std::string_view what) {
+  for (char c : text) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < 0x20 || byte == 0x7f)
+      throw Error(std::string(what) + " holds a control character (" +
+                  (c == '\n' ? std::string("a newline") : c == '\r' ? std::string("a carriage return") : "byte " + std::to_string(byte)) +
+                  "): '" + core::printable(text) + "'");
+  }
+}
+
 std::string gnuplot_string(const std::string& text) {
+  check_gnuplot_text(text, "text for gnuplot");
   std::string out = "'";
   for (char c : text) out += c == '\'' ? std::string("''") : std::string(1, c);
   return out + "'";
 }
 
+std::string plot_format(const std::string& output, const std::string& format) {
+  static const char* const known[] = {"png", "svg", "pdf"};
+  auto is_known = [](const std::string& name) { return std::find(std::begin(known), std::end(known), name) != std::end(known); };
+  if (!format.empty() && !is_known(format)) throw Error("format must be png, svg or pdf, not '" + format + "'");
+  const std::size_t slash = output.rfind('/');
+  const std::string file = slash == std::string::npos ? output : output.substr(slash + 1);
+  const std::size_t dot = file.rfind('.');
+  std::string extension;
+  if (dot != std::string::npos && dot > 0) extension = file.substr(dot + 1);
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (is_known(extension)) {
+    if (!format.empty() && format != extension)
+      throw Error("'" + core::printable(output) + "' names a " + extension + " file but --format is " + format);
+    return extension;
+  }
+  if (!format.empty()) return format;
+  if (extension.empty()) return "png";
+  throw Error("cannot tell the image format of '" + core::printable(output) +
+              "': name it .png, .svg or .pdf, or give --format");
+}
+
 std::string gnuplot_output(const PlotOptions& options, int height, const std::string& output) {
   const std::string size = std::to_string(options.width) + "," + std::to_string(height);
-  std::string s = options.format == "svg"
-                      ? "set terminal svg size " + size + " dynamic font 'Sans,11' background rgb 'white'\n"
-                      : "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {\n  set terminal pngcairo size " + size +
-                            " font 'Sans,10' background rgb 'white'\n} else {\n  set terminal png size " + size + "\n}\n";
+  std::string s;
+  if (options.format == "svg") {
+    s = "set terminal svg size " + size + " dynamic font 'Sans,11' background rgb 'white'\n";
+  } else if (options.format == "pdf") {
+    // pngcairo draws a point as one pixel: the same inches at 72 per inch give the PNG's layout.
+    const std::string inches = core::significant(options.width / 72.0, 6) + "in," + core::significant(height / 72.0, 6) + "in";
+    s = "if (strstrt(GPVAL_TERMINALS, 'pdfcairo') == 0) {\n  print 'this gnuplot cannot write pdf (no pdfcairo "
+        "terminal): write .png or .svg'\n  exit status 1\n}\nset terminal pdfcairo size " +
+        inches + " font 'Sans,10' background rgb 'white'\n";
+  } else {
+    s = "if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {\n  set terminal pngcairo size " + size +
+        " font 'Sans,10' background rgb 'white'\n} else {\n  set terminal png size " + size + "\n}\n";
+  }
   return s + (output == "-" ? std::string("set output\n") : "set output " + gnuplot_string(output) + "\n");
 }
 
@@ -34,10 +78,15 @@ bool PlotOptions::IsValid(std::string* why) const {
     if (why) *why = text;
     return false;
   };
-  if (format != "png" && format != "svg") return bad("format must be png or svg, not '" + format + "'");
-  if (width < 200 || width > 20000) return bad("width must be 200..20000 pixels");
-  if (panel_height < 80 || panel_height > 5000) return bad("panel height must be 80..5000 pixels");
-  if (max_points < 10) return bad("max points must be >= 10");
+  if (format != "png" && format != "svg" && format != "pdf") return bad("format must be png, svg or pdf, not '" + format + "'");
+  try {
+    check_gnuplot_text(title, "the title");
+  } catch (const Error& e) {
+    return bad(e.what());
+  }
+  if (width < kMinPlotWidth || width > kMaxPlotWidth) return bad("width must be 200..20000 pixels");
+  if (panel_height < kMinPanelHeight || panel_height > kMaxPanelHeight) return bad("panel height must be 80..5000 pixels");
+  if (max_points < kMinPlotPoints || max_points > kMaxPlotPoints) return bad("max points must be 10..100000");
   if (!(from < to)) return bad("the time window is empty (from >= to)");
   return true;
 }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "momentum/core/error.hpp"
+#include "momentum/model/model.hpp"
 
 namespace momentum::model {
 
@@ -33,6 +34,44 @@ std::optional<fs::path> resolve_mesh(const std::string& name, const fs::path& ur
   if (name.starts_with(file)) return existing(name.substr(file.size()));
   const fs::path p(name);
   return existing(p.is_absolute() ? p : urdf.parent_path() / p);
+}
+
+std::string unread_meshes_warning(const Model& model) {
+  std::size_t count = 0;
+  const std::string* first = nullptr;
+  std::string bodies;
+  for (const Body& body : model.bodies) {
+    if (body.unread_meshes.empty()) continue;
+    if (!first) first = &body.unread_meshes.front();
+    count += body.unread_meshes.size();
+    bodies += (bodies.empty() ? "'" : ", '") + body.name + "'";
+  }
+  if (!first) return "";
+  const std::string& name = *first;
+  std::string why;
+  constexpr std::string_view package = "package://";
+  if (auto file = resolve_mesh(name, model.urdf)) {
+    try {
+      read_stl(*file);
+      why = "cannot be read";
+    } catch (const Error& e) {
+      why = std::string("cannot be read: ") + e.what();
+    }
+  } else if (name.starts_with(package)) {
+    const std::string rest = name.substr(package.size());
+    const std::string package_name = rest.substr(0, rest.find('/'));
+    const char* paths = std::getenv("ROS_PACKAGE_PATH");
+    why = paths && *paths ? "not found under ROS_PACKAGE_PATH=" + std::string(paths) +
+                                ": add the folder that holds the package '" + package_name + "'"
+                          : "not found: ROS_PACKAGE_PATH is not set; set it to the folder that holds the package '" +
+                                package_name + "'";
+  } else {
+    const fs::path p(name.starts_with("file://") ? name.substr(7) : name);
+    why = "not found (looked for " + (p.is_absolute() ? p : model.urdf.parent_path() / p).string() + ")";
+  }
+  std::string text = model.urdf.string() + ": collision mesh '" + name + "' " + why;
+  if (count > 1) text += "; " + std::to_string(count - 1) + " more cannot be read either";
+  return text + "; contacts on " + bodies + " are located around the link segment instead of on the meshes";
 }
 
 namespace {

@@ -115,6 +115,19 @@ CatResult cat(const CatOptions& options, const OpenInput& open_input, const Open
   // Rows as written, unless asked to mend them by the suite's time policy (mo-log(5)).
   read_options.time_order = options.repair;
 
+  // The selection is checked before any input is opened: a list too long to expand, or one
+  // that names a column twice (a header with a duplicate name, which no reader accepts).
+  std::vector<std::string> listed;
+  if (!options.columns.empty()) {
+    try {
+      listed = expand_column_list(options.columns);
+    } catch (const Error& e) {
+      throw OptionError(std::string("--columns: ") + e.what());
+    }
+    if (auto twice = first_duplicate(listed))
+      throw OptionError("--columns: column '" + *twice + "' is listed twice (a stream's column names differ)");
+  }
+
   CatResult result;
   std::unique_ptr<Writer> out;
   std::unique_ptr<StreamStats> summary;
@@ -141,7 +154,7 @@ CatResult cat(const CatOptions& options, const OpenInput& open_input, const Open
                     ", ...); name the columns with --names (see man mo-cat)");
       first_columns = in->columns();
       const std::vector<std::string> selected =
-          options.columns.empty() ? in->columns() : expand_column_list(options.columns);
+          options.columns.empty() ? in->columns() : listed;
       pick = column_indices(in->columns(), selected, in->name());
       try {
         factor = parse_scales(options.scales, selected);

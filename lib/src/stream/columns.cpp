@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <unordered_set>
 
 #include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
@@ -30,14 +31,39 @@ std::vector<std::string> expand_column_list(std::string_view list) {
                   std::from_chars(last.data(), last.data() + last.size(), b).ptr == last.data() + last.size();
       if (ok_a && ok_b && digits > 0) {
         if (b < a) throw Error("backwards range '" + std::string(item) + "' in column list");
+        // Checked before expanding: "q1-20000000" would otherwise take a gigabyte of names.
+        if (static_cast<std::size_t>(b - a) >= kMaxListedColumns - out.size())
+          throw Error("range '" + std::string(item) + "' in column list is too long (a list names at most " +
+                      std::to_string(kMaxListedColumns) + " columns)");
         std::string name(item.substr(0, digits));
         for (int j = a; j <= b; ++j) out.push_back(name + std::to_string(j));
         ranged = true;
       }
     }
-    if (!ranged) out.emplace_back(item);
+    if (!ranged) {
+      if (out.size() >= kMaxListedColumns)
+        throw Error("column list names more than " + std::to_string(kMaxListedColumns) + " columns");
+      out.emplace_back(item);
+    }
   }
   return out;
+}
+
+std::optional<std::string> first_duplicate(const std::vector<std::string>& names) {
+  std::unordered_set<std::string_view> seen;
+  for (const std::string& name : names)
+    if (!seen.insert(name).second) return name;
+  return std::nullopt;
+}
+
+std::string missing_column_message(const std::vector<std::string>& columns, std::string_view name,
+                                   const std::string& where) {
+  std::string text = where + ": missing column '" + std::string(name) + "'";
+  // A header read as one column: its separator is none that the reader detects.
+  if (columns.size() == 1 && columns.front() != name)
+    text += " (the header is one column, '" + core::printable(columns.front()) +
+            "': columns are separated by commas, semicolons, tabs or blanks)";
+  return text;
 }
 
 std::vector<std::size_t> column_indices(const std::vector<std::string>& columns,
@@ -46,7 +72,7 @@ std::vector<std::size_t> column_indices(const std::vector<std::string>& columns,
   out.reserve(wanted.size());
   for (const auto& name : wanted) {
     auto it = std::find(columns.begin(), columns.end(), name);
-    if (it == columns.end()) throw Error(where + ": missing column '" + name + "'");
+    if (it == columns.end()) throw Error(missing_column_message(columns, name, where));
     out.push_back(static_cast<std::size_t>(it - columns.begin()));
   }
   return out;

@@ -13,6 +13,7 @@
 
 #include "momentum/core/file.hpp"
 #include "momentum/core/text.hpp"
+#include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 
 static_assert(std::endian::native == std::endian::little,
@@ -86,7 +87,7 @@ std::optional<std::size_t> Reader::find(std::string_view column) const {
 
 std::size_t Reader::require(std::string_view column) const {
   if (auto index = find(column)) return *index;
-  throw Error(name_ + ": missing column '" + std::string(column) + "'");
+  throw Error(missing_column_message(columns_, column, name_));
 }
 
 namespace {
@@ -177,6 +178,109 @@ void check_columns(const std::vector<std::string>& columns, const std::string& w
 
 using core::trim;
 
+// One field of a CSV line: its text (for a quoted field, between the quotes, "" not yet
+// undone) and whether it was quoted.
+struct Field {
+  std::string_view text;
+  bool quoted = false;
+};
+
+// How the fields of a line are separated: one character, or runs of blanks.
+struct Separator {
+  char delimiter = ',';
+  bool blanks = false;  // runs of spaces and tabs; blanks at either end ignored
+};
+
+// The separator of a header (or, with --names, of the first row): the first of comma,
+// semicolon and tab that occurs outside quotes, else runs of blanks when the line has some
+// between fields, else a comma (one column).
+Separator detect_separator(std::string_view line) {
+  bool quoted = false, comma = false, semicolon = false, tab = false, blank = false;
+  const std::string_view inner = trim(line);
+  for (char c : inner) {
+    if (c == '"') quoted = !quoted;
+    if (quoted) continue;
+    comma = comma || c == ',';
+    semicolon = semicolon || c == ';';
+    tab = tab || c == '\t';
+    blank = blank || c == ' ';
+  }
+  if (comma) return {',', false};
+  if (semicolon) return {';', false};
+  if (tab) return {'\t', false};
+  if (blank) return {' ', true};
+  return {',', false};
+}
+
+// Splits `line` into `fields` (cleared first). A field may be double-quoted ("" for a quote
+// inside, the separator allowed inside, blanks around the quotes ignored). Returns nullptr,
+// or why the line cannot be split: an unterminated quote, or text after a closing quote.
+const char* split_fields(std::string_view line, Separator separator, std::vector<Field>& fields) {
+  fields.clear();
+  const std::size_t n = line.size();
+  auto blank = [&](char c) { return c == ' ' || (c == '\t' && separator.delimiter != '\t'); };
+  std::size_t i = 0;
+  if (separator.blanks) {
+    while (i < n && blank(line[i])) ++i;
+    if (i == n) return nullptr;
+  }
+  for (;;) {
+    const std::size_t start = i;
+    std::size_t at = i;
+    while (at < n && blank(line[at])) ++at;
+    if (at < n && line[at] == '"') {
+      const std::size_t content = ++at;
+      for (;;) {
+        if (at >= n) return "unterminated quote";
+        if (line[at] == '"') {
+          if (at + 1 < n && line[at + 1] == '"') {
+            at += 2;
+            continue;
+          }
+          break;
+        }
+        ++at;
+      }
+      fields.push_back({line.substr(content, at - content), true});
+      const std::size_t closing = at++;
+      while (at < n && blank(line[at])) ++at;
+      if (at == n) return nullptr;
+      if (separator.blanks) {
+        if (at == closing + 1) return "text after a closing quote";
+        i = at;
+        continue;
+      }
+      if (line[at] != separator.delimiter) return "text after a closing quote";
+      i = at + 1;
+      continue;
+    }
+    if (separator.blanks) {
+      std::size_t end = at;
+      while (end < n && !blank(line[end])) ++end;
+      fields.push_back({line.substr(at, end - at), false});
+      while (end < n && blank(line[end])) ++end;
+      if (end == n) return nullptr;
+      i = end;
+      continue;
+    }
+    const std::size_t end = std::min(n, line.find(separator.delimiter, start));
+    fields.push_back({line.substr(start, end - start), false});
+    if (end == n) return nullptr;
+    i = end + 1;
+  }
+}
+
+// A header field as a column name: a quoted one with "" undone, another one trimmed.
+std::string field_name(const Field& field) {
+  if (!field.quoted) return std::string(trim(field.text));
+  std::string out;
+  for (std::size_t i = 0; i < field.text.size(); ++i) {
+    out += field.text[i];
+    if (field.text[i] == '"') ++i;  // the second quote of ""
+  }
+  return out;
+}
+
 // What both encodings' readers start with: their input, name and options.
 class InputReader : public Reader {
  protected:
@@ -211,7 +315,10 @@ class CsvReader final : public InputReader {
         if (line_number_ == 0) throw Error(name() + ": empty input");
         throw Error(name() + ": no header line (only comments)");
       }
-      for (const std::string& column : core::split(line)) columns_.emplace_back(trim(column));
+      separator_ = detect_separator(line);
+      if (const char* why = split_fields(line, separator_, split_))
+        throw Error(located(name(), line_number_, std::string("header: ") + why));
+      for (const Field& field : split_) columns_.push_back(field_name(field));
       check_columns(columns_, located(name(), line_number_, "header"));
       for (std::size_t i = 0; i < columns_.size(); ++i) keep_.push_back(i);
       fields_ = columns_.size();
@@ -224,7 +331,10 @@ class CsvReader final : public InputReader {
         keep_.push_back(i);
       }
       check_columns(columns_, name() + ": --names");
-      if (have_line) pending_ = std::string(line), has_pending_ = true, pending_line_ = line_number_;
+      if (have_line) {
+        separator_ = detect_separator(line);
+        pending_ = std::string(line), has_pending_ = true, pending_line_ = line_number_;
+      }
     }
     values_.resize(fields_);
     row_.resize(columns_.size());
@@ -309,6 +419,9 @@ class CsvReader final : public InputReader {
   }
 
   bool parse_row(std::string_view line) {
+    // The plain case (commas, no quotes) is the fast one; anything else takes the splitter.
+    if (separator_.delimiter != ',' || separator_.blanks || std::memchr(line.data(), '"', line.size()) != nullptr)
+      return parse_split_row(line);
     const char* p = line.data();
     const char* end = p + line.size();
     std::size_t field = 0;
@@ -341,12 +454,38 @@ class CsvReader final : public InputReader {
     for (std::size_t i = 0; i < keep_.size(); ++i) row_[i] = values_[keep_[i]];
     return true;
   }
+  bool parse_split_row(std::string_view line) {
+    if (const char* why = split_fields(line, separator_, split_)) {
+      skip_bad("bad row", why);
+      return false;
+    }
+    if (split_.size() != fields_) {
+      skip_bad("ragged row", "expected " + std::to_string(fields_) + " fields, got " + std::to_string(split_.size()));
+      return false;
+    }
+    for (std::size_t field = 0; field < fields_; ++field) {
+      const std::string_view text = split_[field].text;
+      auto value = parse_double(text);
+      if (!value) {
+        std::string message = "bad number '" + printable(text) + "' in column '" + column_name(field) + "'";
+        if (separator_.delimiter != ',' && text.find(',') != std::string_view::npos)
+          message += " (a decimal comma? numbers are read with a decimal point)";
+        skip_bad("bad number", message);
+        return false;
+      }
+      values_[field] = *value;
+    }
+    for (std::size_t i = 0; i < keep_.size(); ++i) row_[i] = values_[keep_[i]];
+    return true;
+  }
   std::string column_name(std::size_t field) const {
     for (std::size_t i = 0; i < keep_.size(); ++i)
       if (keep_[i] == field) return columns_[i];
     return "_";
   }
 
+  Separator separator_;       // detected from the header (or the first row with --names)
+  std::vector<Field> split_;  // the fields of the line being parsed (split_fields)
   bool discarding_ = false;  // inside a line longer than kMaxLineBytes
   std::size_t scanned_ = 0;
   std::uint64_t line_number_ = 0;

@@ -20,6 +20,7 @@ std::string_view time_fault_name(TimeFault fault) {
     case TimeFault::duplicate: return "duplicate row";
     case TimeFault::not_finite: return "time is not finite";
     case TimeFault::out_of_order: return "time out of order";
+    case TimeFault::repeated_time: return "repeated time";
   }
   return "time out of order";
 }
@@ -70,16 +71,27 @@ void TimeOrder::keep(Row&& row) {
 }
 
 void TimeOrder::drop(Row&& row, TimeFault fault, const std::string& detail) {
-  if (fault == TimeFault::out_of_order) ++summary_.out_of_order;
+  if (fault == TimeFault::out_of_order || fault == TimeFault::repeated_time) ++summary_.out_of_order;
   if (dropped_) dropped_(row.position, fault, detail);
   recycle(std::move(row));
 }
 
+void TimeOrder::drop_late(Row&& row, double after_t, double next_t) {
+  const double t = time(row);
+  // A time equal to a neighbour's is a repeated sample time, not a step back: say so, rather
+  // than "t=5 before t=5".
+  if (t == after_t || t == next_t) {
+    drop(std::move(row), TimeFault::repeated_time, "t=" + exact(t));
+    return;
+  }
+  std::string detail = "t=" + exact(t);
+  if (!std::isnan(after_t)) detail += " after t=" + exact(after_t);
+  if (std::isfinite(next_t)) detail += (!std::isnan(after_t) ? ", next t=" : " before t=") + exact(next_t);
+  drop(std::move(row), TimeFault::out_of_order, detail);
+}
+
 void TimeOrder::drop_held(std::size_t index, double next_t) {
-  std::string detail = "t=" + exact(time(held_[index]));
-  if (have_last_) detail += " after t=" + exact(last_t_);
-  if (std::isfinite(next_t)) detail += (have_last_ ? ", next t=" : " before t=") + exact(next_t);
-  drop(std::move(held_[index]), TimeFault::out_of_order, detail);
+  drop_late(std::move(held_[index]), have_last_ ? last_t_ : NAN, next_t);
 }
 
 void TimeOrder::push(const double* row, std::uint64_t position) {
@@ -119,7 +131,7 @@ bool TimeOrder::resolve_start(bool at_end) {
     // A stream of one or two rows: keep them while time increases.
     for (auto& row : held_) {
       if (!have_last_ || time(row) > last_t_) keep(std::move(row));
-      else drop(std::move(row), TimeFault::out_of_order, "t=" + exact(time(row)) + " after t=" + exact(last_t_));
+      else drop_late(std::move(row), last_t_, NAN);
     }
     held_.clear();
     return false;
@@ -144,7 +156,7 @@ bool TimeOrder::resolve_start(bool at_end) {
   if (t2 < t3) odd = 0;
   else if (t1 < t3) odd = t2 - t1 > 3 * (t3 - t1) ? 1 : 2;
   if (odd == 2) {
-    drop(std::move(held_[2]), TimeFault::out_of_order, "t=" + exact(t3) + " after t=" + exact(t2));
+    drop_late(std::move(held_[2]), t2, NAN);
   } else {
     drop_held(odd, odd == 0 ? t2 : t3);
   }

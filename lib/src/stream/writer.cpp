@@ -46,9 +46,8 @@ void Writer::comment(std::string_view text) {
     return;
   }
   if (options_.encoding == Encoding::csv) {
-    append("#", 1);
-    append(text.data(), text.size());
-    append("\n", 1);
+    const std::string lines = csv_comment_lines(text);  // a line break cannot start a row
+    append(lines.data(), lines.size());
   } else {
     std::uint64_t marker = kCommentRecordBits, length = text.size();
     append(&marker, 8);
@@ -66,16 +65,14 @@ void Writer::header(const std::vector<std::string>& columns) {
   width_ = columns.size();
   std::vector<char> out;
   if (options_.encoding == Encoding::csv) {
-    for (const auto& c : pending_comments_) {
-      out.push_back('#');
-      out.insert(out.end(), c.begin(), c.end());
-      out.push_back('\n');
+    std::string text;
+    for (const auto& c : pending_comments_) text += csv_comment_lines(c);
+    try {
+      text += csv_header_line(columns);  // quoted or refused: a name cannot split the header
+    } catch (const Error& e) {
+      throw Error(out_->name() + ": " + e.what());
     }
-    for (std::size_t i = 0; i < columns.size(); ++i) {
-      if (i) out.push_back(',');
-      out.insert(out.end(), columns[i].begin(), columns[i].end());
-    }
-    out.push_back('\n');
+    out.assign(text.begin(), text.end());
   } else {
     out.insert(out.end(), kBinaryMagic, kBinaryMagic + sizeof kBinaryMagic);
     put_u32(out, kBinaryVersion);
@@ -148,9 +145,8 @@ void Writer::close() {
     // as CSV comment lines; a binary stream needs a header, which we do not have.
     if (options_.encoding == Encoding::csv) {
       for (const auto& c : pending_comments_) {
-        append("#", 1);
-        append(c.data(), c.size());
-        append("\n", 1);
+        const std::string lines = csv_comment_lines(c);
+        append(lines.data(), lines.size());
       }
     }
     pending_comments_.clear();

@@ -42,13 +42,23 @@ enum class CycleBoundary : std::uint8_t {
   period,   // fixed periods from the first frame's time
 };
 
+// The range of a fixed cycle period, s. Cycles are counted in whole nanoseconds of the capture
+// clock: below 1 us (candump's timestamp resolution) every frame would be its own cycle, and
+// the upper bound keeps the period in nanoseconds far inside 64 bits (1e10 s once overflowed
+// to one row per frame).
+inline constexpr double kMinPeriod = 1e-6;
+inline constexpr double kMaxPeriod = 1e6;
+
+// Whether `period` (s) is a usable cycle period; otherwise `*why` says the range.
+bool valid_period(double period, std::string* why);
+
 struct CycleOptions {
   CycleBoundary boundary = CycleBoundary::sync;
   // sync: the SYNC frame's key (Frame::key(); kExtendedFlag for a 29-bit id).
   std::uint32_t sync_key = 0x080;
   // message: the boundary message's key.
   std::uint32_t message_key = 0;
-  // period: cycle length in seconds (> 0).
+  // period: cycle length in seconds, kMinPeriod..kMaxPeriod.
   double period = 0;
   // A value missing from a cycle repeats the last one for at most this many consecutive
   // cycles; 0: never (written as NaN at once).

@@ -5,8 +5,10 @@
 // maximum of each time bucket, so peaks survive and memory stays constant.
 
 #include <cmath>
+#include <cstddef>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "momentum/detect/detector.hpp"
@@ -15,14 +17,21 @@
 
 namespace momentum::detect {
 
+// Ranges of PlotOptions' sizes. No image is wider than kMaxPlotWidth pixels, so more than
+// kMaxPlotPoints time buckets (each drawn as its minimum and maximum) add nothing visible; the
+// bound also keeps the decimated data small (buckets x signals x joints).
+inline constexpr int kMinPlotWidth = 200, kMaxPlotWidth = 20000;
+inline constexpr int kMinPanelHeight = 80, kMaxPanelHeight = 5000;
+inline constexpr std::size_t kMinPlotPoints = 10, kMaxPlotPoints = 100000;
+
 struct PlotOptions {
-  std::string format = "png";     // "png" or "svg"
-  int width = 1400;               // pixels
-  int panel_height = 220;         // pixels per joint row
-  std::size_t max_points = 2000;  // time buckets per panel, >= 10
+  std::string format = "png";     // "png", "svg" or "pdf" (plot_format)
+  int width = 1400;               // pixels, kMinPlotWidth..kMaxPlotWidth
+  int panel_height = 220;         // pixels per joint row, kMinPanelHeight..kMaxPanelHeight
+  std::size_t max_points = 2000;  // time buckets per panel, kMinPlotPoints..kMaxPlotPoints
   double from = -INFINITY;        // time window, s
   double to = INFINITY;
-  std::string title;              // empty: none
+  std::string title;              // empty: none; no control characters (check_gnuplot_text)
   // The band mu's thresholds were calibrated with (plot_thresholds gives it); empty: none.
   FrictionBand friction_band;
   bool IsValid(std::string* why) const;
@@ -87,11 +96,28 @@ std::string gnuplot_script(const PlotData& data, const std::vector<Event>& event
                            const std::vector<TruthContact>& truth, const std::string& output,
                            const PlotOptions& options);
 
-// `text` as a gnuplot single-quoted string: '' stands for one quote.
+// Throws momentum::Error "`what` holds a control character (...)" when `text` has a byte below
+// 0x20 or 0x7f. Text goes into gnuplot scripts only as single-quoted strings, where nothing
+// but the quote is special (no backquote or macro substitution); a newline would end the
+// command and start the next one (`set title 'a\nsystem "..."'` runs a shell command), and
+// gnuplot has no escape for it in such strings, so it is refused.
+void check_gnuplot_text(std::string_view text, std::string_view what);
+
+// `text` as a gnuplot single-quoted string: '' stands for one quote. Throws as
+// check_gnuplot_text for a control character.
 std::string gnuplot_string(const std::string& text);
 
+// The image format for `output` ("-": standard output) and --format `format` ("" when not
+// given): the file name's extension .png, .svg or .pdf (any case), else `format`, else png for
+// a name without extension or "-". Throws momentum::Error when a given format and the
+// extension disagree, or when the extension is another one and no format is given (mo-plot
+// once wrote a PNG named x.pdf).
+std::string plot_format(const std::string& output, const std::string& format);
+
 // The start of every figure's script: the terminal for an image of options.width x `height`
-// pixels in options.format (png through pngcairo when gnuplot has it), and the output file
+// pixels in options.format (png through pngcairo when gnuplot has it; pdf through pdfcairo at
+// 72 pixels per inch, the pixel size of pngcairo's points, or gnuplot exits with a message
+// when it lacks pdfcairo), and the output file
 // (`output` "-": standard output, as everywhere in the suite).
 std::string gnuplot_output(const PlotOptions& options, int height, const std::string& output);
 

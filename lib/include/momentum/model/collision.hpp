@@ -21,4 +21,13 @@ std::optional<std::filesystem::path> resolve_mesh(const std::string& name, const
 // non-finite vertex or no triangle.
 std::vector<Eigen::Vector3d> read_stl(const std::filesystem::path& path);
 
+struct Model;
+
+// One warning about the collision meshes of `model` that could not be read
+// (Body::unread_meshes), or "" when there are none: the first such mesh, why (a package:// name
+// with ROS_PACKAGE_PATH unset says to set it to the folder that holds the package; a file not
+// found says where it was looked for; a file that is not a readable STL says why), how many
+// more, and the bodies whose contacts are then located on their link segment instead.
+std::string unread_meshes_warning(const Model& model);
+
 }  // namespace momentum::model

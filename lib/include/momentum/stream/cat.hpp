@@ -66,7 +66,8 @@ using OpenOutput = std::function<std::unique_ptr<Writer>(Reader& first)>;
 // Copies (or with options.stats describes) every input in turn: the selected columns, scaled,
 // t shifted or mended as asked, comments passed through, the output flushed before a read
 // that may wait when it is a pipe. Throws momentum::Error for a header-less input without
-// names, inputs whose columns differ, a missing column, OptionError for a bad --scale, and
+// names, inputs whose columns differ, a missing column, OptionError for a bad --scale or a
+// --columns list that is too long or names a column twice (before any input is opened), and
 // what reading and writing throw. With repair, warns once with what was dropped.
 CatResult cat(const CatOptions& options, const OpenInput& open_input, const OpenOutput& open_output);
 

@@ -3,17 +3,33 @@
 // range of joint numbers), and the joint columns of the stream format (q<j>, dq<j>, ...).
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 namespace momentum::stream {
 
-// Expands "t,q1-3" to {"t","q1","q2","q3"}. Throws momentum::Error on an empty item or a
-// backwards range.
+// The most columns a column list may name once its ranges are expanded. A CSV row of n
+// columns takes at least 2n bytes and the reader refuses lines above 1 MiB, so no stream
+// has more than 524,288 columns; a list is for selecting among real ones, and 65,536 names
+// (a few MB) bound what a typo such as "q1-20000000" can allocate.
+inline constexpr std::size_t kMaxListedColumns = 65536;
+
+// Expands "t,q1-3" to {"t","q1","q2","q3"}. Throws momentum::Error on an empty item, a
+// backwards range, or a list that would name more than kMaxListedColumns columns (checked
+// before anything is allocated for it).
 std::vector<std::string> expand_column_list(std::string_view list);
 
-// Indices of `wanted` in `columns`; throws momentum::Error `where: missing column 'x'`.
+// The first name that occurs twice in `names`, or nullopt when all differ.
+std::optional<std::string> first_duplicate(const std::vector<std::string>& names);
+
+// "where: missing column 'x'", and when `columns` is a single other column, what it was (a
+// header whose separator the reader did not recognize).
+std::string missing_column_message(const std::vector<std::string>& columns, std::string_view name,
+                                   const std::string& where);
+
+// Indices of `wanted` in `columns`; throws momentum::Error with missing_column_message.
 std::vector<std::size_t> column_indices(const std::vector<std::string>& columns,
                                         const std::vector<std::string>& wanted,
                                         const std::string& where);

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "momentum/core/number.hpp"
 
@@ -15,6 +16,17 @@ enum class Encoding { csv, binary };
 // "csv" or "bin"; throws momentum::Error for anything else.
 Encoding parse_encoding(std::string_view name);
 std::string_view encoding_name(Encoding encoding);
+
+// A comment as CSV comment lines: "#" + text + "\n", where every line break in the text (LF,
+// CR or CR LF) starts a new "#" line. A comment from a binary stream, or from any caller, can
+// then never become a data row or a header (mo-log(5)).
+std::string csv_comment_lines(std::string_view text);
+
+// The CSV header line of `columns`, with "\n". A name that holds a separator the reader detects
+// (comma, semicolon, tab, space) or a double quote, or that starts with '#', is written
+// double-quoted with "" for a quote, so that it reads back as itself. Throws momentum::Error
+// for an empty name or one with a control character (a line break would end the header).
+std::string csv_header_line(const std::vector<std::string>& columns);
 
 // Binary format constants (mo-log(5)). The magic starts with a non-ASCII byte so that no CSV
 // file can be mistaken for binary, and holds CR LF so that a text-mode copy is detected.

@@ -41,10 +41,12 @@ enum class TimeMark {
 enum class TimeFault {
   duplicate,     // equal to the previous row in every column
   not_finite,    // t is NaN or infinite
-  out_of_order,  // t does not fit between its neighbours
+  out_of_order,   // t does not fit between its neighbours
+  repeated_time,  // t equals a neighbour's time, the other values differ
 };
 
-// The text used in messages: "duplicate row", "time is not finite", "time out of order".
+// The text used in messages: "duplicate row", "time is not finite", "time out of order",
+// "repeated time".
 std::string_view time_fault_name(TimeFault fault);
 
 class TimeOrder {
@@ -63,7 +65,7 @@ class TimeOrder {
     std::uint64_t kept = 0;
     std::uint64_t duplicates = 0;
     std::uint64_t not_finite = 0;
-    std::uint64_t out_of_order = 0;
+    std::uint64_t out_of_order = 0;  // out_of_order and repeated_time faults
     std::uint64_t gaps = 0;         // kept rows marked gap
     std::uint64_t clock_steps = 0;  // kept rows marked clock_step
     std::uint64_t dropped() const { return duplicates + not_finite + out_of_order; }
@@ -94,6 +96,9 @@ class TimeOrder {
   // Keeps a row, marking it by its step from the last kept row.
   void keep(Row&& row);
   void drop(Row&& row, TimeFault fault, const std::string& detail);
+  // Drops a row whose time does not fit: `after_t` the kept (or held) time before it, NaN for
+  // none; `next_t` the time after it, NaN for none. A time equal to either is a repeated time.
+  void drop_late(Row&& row, double after_t, double next_t);
   void drop_held(std::size_t index, double next_t);
   double time(const Row& row) const { return row.values[time_]; }
 
