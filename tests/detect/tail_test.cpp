@@ -271,7 +271,7 @@ TEST(FitTail, GlitchesThatMaskEachOtherAreAllLeftOut) {
   ASSERT_TRUE(fit.ok);
   ASSERT_GE(fit.outliers.size(), 3u);
   EXPECT_EQ(fit.outliers[2].m, 29.0);
-  // At the 0.05 level an ordinary peak may go with them (here one does: 4 left out, the
+  // An ordinary peak may go with them (at the 0.05 level one does here: 4 left out, the
   // glitches first); the tail is the clean data's.
   EXPECT_LE(fit.outliers.size(), 4u);
   EXPECT_LT(fit.largest_kept, 5);
@@ -280,11 +280,11 @@ TEST(FitTail, GlitchesThatMaskEachOtherAreAllLeftOut) {
 
 TEST(FitTail, OrdinaryPeaksAreLeftOutNoMoreOftenThanTheOutlierProbability) {
   // Outlier-free data: exponential peaks, few or many. The share of draws that lose any peak
-  // as an outlier must stay near outlier_probability (0.05), at most twice it (measured 8.5%,
-  // 6.7%, 6.9% for 40, 100, 400 peaks). Judged by the plug-in exponential of a scale fitted to
-  // a handful of peaks (the rule before, at 0.001), 40 peaks lost one in 13% of the draws, 100
-  // in 8.7%, 400 in 3.2%, where 0.1% was meant: on a real arm ordinary peaks went, leaving a
-  // threshold that ordinary motion crosses.
+  // as an outlier must stay near outlier_probability (0.01), at most twice it (measured at
+  // 0.05: 8.5%, 6.7%, 6.9% for 40, 100, 400 peaks). Judged by the plug-in exponential of a
+  // scale fitted to a handful of peaks (the rule before, at 0.001), 40 peaks lost one in 13% of
+  // the draws, 100 in 8.7%, 400 in 3.2%, where 0.1% was meant: on a real arm ordinary peaks
+  // went, leaving a threshold that ordinary motion crosses.
   const TailFitOptions options;
   for (int n : {40, 100, 400}) {
     std::mt19937_64 rng(100 + n);
