@@ -48,6 +48,8 @@ int main(int argc, char** argv) {
       ->type_name("SECONDS");
   app.add_option("--skip", options.skip, "seconds at the start of the stream that do not count (0)")
       ->type_name("SECONDS");
+  app.add_option("--stretch-gap", streams.stretch_gap, "a gap over this many seconds starts a new stretch (10)")
+      ->type_name("SECONDS");
   std::string drift_list;
   app.add_option("--rest-drift", drift_list, "drift times of the rest baseline to choose from, s (0.5,1,2; 0: frozen)")
       ->type_name("LIST");

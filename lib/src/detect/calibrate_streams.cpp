@@ -6,6 +6,7 @@
 
 #include "momentum/core/file.hpp"
 #include "momentum/detect/events_json.hpp"
+#include "momentum/model/json_number.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -21,6 +22,7 @@ bool CalibrateStreamsOptions::IsValid(std::string* why) const {
   if (!(friction_band_sigmas >= 0 && std::isfinite(friction_band_sigmas)))
     return fail("--friction-band must be >= 0 standard deviations");
   if (!output.empty() && profile_path.empty()) return fail("-o needs a profile (-p) to update");
+  if (!(stretch_gap > 0)) return fail("--stretch-gap must be > 0 s");
   return true;
 }
 
@@ -82,12 +84,18 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
     for (auto& c : calibrators) c.begin_stream(in->name(), !idq.empty());
     std::vector<double> x(joints), dq(joints), xr(joints);
     auto where = [&] { return in->where(); };
+    double t_previous = NAN;
     while (const double* row = in->next()) {
       if (in->time_mark() == stream::TimeMark::clock_step) {
         // The time line starts again: calibrate what follows as a stream of its own.
         warn(in->where() + ": the clock stepped back: the rows from here count as a new log");
         for (auto& c : calibrators) c.begin_stream(in->where(), !idq.empty());
+      } else if (in->time_mark() == stream::TimeMark::gap && row[it] - t_previous > options.stretch_gap) {
+        // Recorded apart: a stretch of its own for the out-of-sample check, and the gap is no
+        // exposure.
+        for (auto& c : calibrators) c.begin_stretch(in->where());
       }
+      t_previous = row[it];
       for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
       for (std::size_t j = 0; j < ir.size(); ++j) xr[j] = row[ir[j]];
       for (std::size_t s = 0; s < calibrators.size(); ++s) {
@@ -151,6 +159,25 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
   if (calibration.rule == ThresholdRule::rate) details["false_alarms_per_hour"] = calibration.false_alarms_per_hour;
   details["margin"] = calibration.margin_nm ? nlohmann::json{{"nm", *calibration.margin_nm}}
                                             : nlohmann::json{{"percent", calibration.margin_percent}};
+  // What the thresholds stand for, and that statement checked out of sample, per signal.
+  nlohmann::json expected = nlohmann::json::object(), vouched = nlohmann::json::object(),
+                 checked = nlohmann::json::object();
+  for (const auto& r : results) {
+    const std::string signal(signal_name(r.thresholds.signal));
+    expected[signal] = model::json_number(r.expected_false_alarms_per_hour());
+    vouched[signal] = model::json_number(r.vouched_false_alarms_per_hour());
+    checked[signal] = out_of_sample_json(r.out_of_sample);
+    // The profile keeps the states that saw false alarms: where the promise was tested hardest.
+    if (checked[signal].contains("states")) {
+      nlohmann::json crossed = nlohmann::json::array();
+      for (const auto& state : checked[signal]["states"])
+        if (state["false_alarms"].get<std::uint64_t>() > 0) crossed.push_back(state);
+      checked[signal]["states"] = crossed;
+    }
+  }
+  details["false_alarms_expected_per_hour"] = expected;
+  details["false_alarms_vouched_per_hour"] = vouched;
+  details["out_of_sample"] = checked;
   model::append_provenance(document, "mo-calibrate", details);
   write_updated_profile(document, *profile, options.output);
   return results;

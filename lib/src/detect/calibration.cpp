@@ -131,6 +131,8 @@ void MagnitudeStats::merge(const MagnitudeStats& other) {
   compensation_ += other.compensation_;
   histogram_.merge(other.histogram_);
   peaks_.merge(other.peaks_);
+  // The rows judged by this state's rule belong to its tail as well.
+  tail_.merge(other.tail_);
   if (other.max_ > max_) {
     max_ = other.max_;
     t_max_ = other.t_max_;
@@ -223,6 +225,39 @@ std::optional<JointThreshold::Envelope> EnvelopeFitter::fit() const {
   return e;
 }
 
+// ---- JointTails, OutOfSample -----------------------------------------------------------
+
+JointTails::JointTails(double window, std::size_t drifts)
+    : moving(window), slow(window), rest_absolute(window), rest(drifts, TailSampler(window)) {}
+
+void JointTails::begin_stream() {
+  moving.begin_stream();
+  slow.begin_stream();
+  rest_absolute.begin_stream();
+  for (auto& r : rest) r.begin_stream();
+}
+
+void JointTails::merge(const JointTails& other) {
+  moving.merge(other.moving);
+  slow.merge(other.slow);
+  rest_absolute.merge(other.rest_absolute);
+  for (std::size_t d = 0; d < rest.size() && d < other.rest.size(); ++d) rest[d].merge(other.rest[d]);
+  moving_rows += other.moving_rows;
+  slow_rows += other.slow_rows;
+  rest_rows += other.rest_rows;
+}
+
+double OutOfSample::chance() const {
+  if (!(expected >= 0) || stretches == 0) return NAN;
+  if (crossings == 0) return 1;
+  // P(N >= n) = 1 - sum_{k<n} e^-m m^k / k!, summed in logs so that a large mean does not
+  // underflow its first term.
+  double below = 0;
+  for (std::uint64_t k = 0; k < crossings; ++k)
+    below += std::exp(-expected + static_cast<double>(k) * std::log(expected) - std::lgamma(static_cast<double>(k) + 1));
+  return std::clamp(1 - below, 0.0, 1.0);
+}
+
 // ---- Calibrator ------------------------------------------------------------------------
 
 bool CalibrationOptions::IsValid(std::string* why) const {
@@ -244,6 +279,7 @@ bool CalibrationOptions::IsValid(std::string* why) const {
   for (double d : rest_drift_candidates)
     if (!(d >= 0 && std::isfinite(d))) return bad("rest drift times must be >= 0 s");
   if (!(contact_rise > 0 && std::isfinite(contact_rise))) return bad("contact rise time must be > 0 s");
+  if (!(min_state_samples >= 1)) return bad("a state needs at least 1 row");
   return true;
 }
 
@@ -257,6 +293,16 @@ bool CalibrationResult::any_contact() const {
   for (const auto& j : joints)
     if (j.moving_contact || j.slow_contact || j.rest_contact) return true;
   return false;
+}
+
+double CalibrationResult::vouched_false_alarms_per_hour() const {
+  CalibrationResult vouched;
+  vouched.thresholds = thresholds;
+  vouched.joints = joints;
+  vouched.false_alarms_per_hour = false_alarms_per_hour;
+  for (auto& c : vouched.joints)
+    for (ThresholdBasis* b : {&c.moving_basis, &c.slow_basis, &c.rest_basis}) b->per_hour = b->vouched_per_hour;
+  return vouched.expected_false_alarms_per_hour();
 }
 
 double CalibrationResult::expected_false_alarms_per_hour() const {
@@ -296,7 +342,35 @@ Calibrator::Calibrator(Signal signal, std::size_t joints, CalibrationOptions opt
                             EnvelopeFitter(options_.envelope_bin)});
 }
 
+void Calibrator::begin_part(const std::string& name) {
+  // A stretch that holds no row counted yet is continued, not left out on its own.
+  if (!parts_.empty()) {
+    bool empty = true;
+    for (const auto& P : parts_.back().joints) empty = empty && P.moving_rows + P.slow_rows + P.rest_rows == 0;
+    if (empty) {
+      parts_.back().name = name;
+      for (auto& P : parts_.back().joints) P.begin_stream();
+      return;
+    }
+  }
+  parts_.push_back(Part{name, std::vector<JointTails>(joints_.size(), JointTails(options_.peak_window, options_.rest_drift_candidates.size()))});
+}
+
+void Calibrator::begin_stretch(const std::string& name) {
+  begin_part(name);
+  for (auto& J : joints_) {
+    J.moving.begin_stream();
+    J.slow.begin_stream();
+    for (auto& r : J.rest) r.begin_stream();
+    J.rest_absolute.begin_stream();
+    J.was_rest = false;
+    J.tracker.restart();
+  }
+  t_prev_ = kNaN;
+}
+
 void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
+  begin_part(name);
   streams_.push_back(name);
   for (auto& J : joints_) {
     J.moving.begin_stream();
@@ -329,9 +403,6 @@ CalibrationResult Calibrator::result() const {
   }
   if (options_.margin_nm) out.thresholds.margin_nm = *options_.margin_nm;
   else out.thresholds.margin_percent = options_.margin_percent;
-  auto with_margin = [&](double x) {
-    return options_.margin_nm ? x + *options_.margin_nm : x * (1 + options_.margin_percent / 100);
-  };
   const std::string sig(signal_name(signal_));
   if (!options_.rest_state)
     out.notes.push_back("motion states off (--no-rest): one threshold per joint for every row");
@@ -344,19 +415,6 @@ CalibrationResult Calibrator::result() const {
     const bool above_quantile = s.seconds >= 1000 && s.max > options_.contact_ratio * s.p999;
     return s.samples >= 1000 && (above_peaks || above_quantile);
   };
-  // The threshold of one state from its rows, and how it was decided.
-  auto decide = [&](const MagnitudeStats& stats, const MagnitudeSummary& s, ThresholdBasis* basis) {
-    basis->tail = fit_tail(stats.tail().largest(), stats.tail().peaks(), stats.tail().seconds(), options_.tail);
-    double threshold = with_margin(s.max);
-    if (options_.rule == ThresholdRule::rate && basis->tail.ok) {
-      const double floor = with_margin(basis->tail.largest_kept);
-      const double level = basis->tail.tail.level(options_.false_alarms_per_hour);
-      basis->from_tail = level > floor;
-      threshold = std::max(level, floor);
-    }
-    if (basis->tail.ok) basis->per_hour = basis->tail.tail.rate_over(threshold);
-    return threshold;
-  };
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const auto& J = joints_[j];
     const std::string name = sig + std::to_string(j + 1);
@@ -367,54 +425,41 @@ CalibrationResult Calibrator::result() const {
     c.rest = J.rest.front().summary();
     c.rest_absolute = J.rest_absolute.summary();
     if (c.moving.samples + c.slow.samples + c.rest.samples == 0) throw Error(name + ": no finite sample to calibrate on");
-    JointThreshold T;
+    JointTails tails(options_.peak_window, J.rest.size());
+    tails.moving = J.moving.tail();
+    tails.slow = J.slow.tail();
+    tails.rest_absolute = J.rest_absolute.tail();
+    for (std::size_t d = 0; d < J.rest.size(); ++d) tails.rest[d] = J.rest[d].tail();
+    tails.moving_rows = J.moving.samples();
+    tails.slow_rows = J.slow.samples();
+    tails.rest_rows = J.rest.front().samples();
+    const JointDecision decision = decide_joint(tails);
+    JointThreshold T = decision.threshold;
+    c.moving_basis = decision.moving_basis;
+    c.slow_basis = decision.slow_basis;
+    c.rest_basis = decision.rest_basis;
+    c.rest_drift_costs = decision.rest_drift_costs;
     // A state with too few rows for a threshold of its own is judged by the next rule down
     // (rest -> slow -> moving), exactly as the detector falls back, so its rows (with |x|)
     // join that state's data here.
     MagnitudeStats slow = J.slow, moving = J.moving;
     EnvelopeFitter envelope = J.envelope;
-    if (c.rest.samples >= options_.min_state_samples) {
-      // Whichever rest statistic needs the lower threshold on these data: the deviation from
-      // the settled baseline (static friction held at rest cancels out), or the plain |x|
-      // (better when the residual moves at rest, e.g. a controller ramping torque against
-      // stiction before a breakaway, while the friction model holds its level).
-      // Among the drift times, the one that sees the smallest contact of the rise time aimed at.
-      ThresholdBasis deviation_basis, absolute_basis;
-      double deviation = INFINITY, best_cost = INFINITY;
-      for (std::size_t d = 0; d < J.rest.size(); ++d) {
-        ThresholdBasis basis;
-        const MagnitudeSummary summary = J.rest[d].summary();
-        const double threshold = decide(J.rest[d], summary, &basis);
-        const double drift = options_.rest_drift_candidates[d];
-        const double cost = threshold / drift_gain(drift, options_.contact_rise);
-        c.rest_drift_costs.emplace_back(threshold, cost);
-        if (cost < best_cost) {
-          best_cost = cost;
-          deviation = threshold;
-          deviation_basis = basis;
-          c.rest = summary;
-          c.rest_drift = drift;
-        }
-      }
-      const double absolute = decide(J.rest_absolute, c.rest_absolute, &absolute_basis);
-      T.rest_absolute = absolute < best_cost;
-      T.rest_drift = T.rest_absolute ? 0 : c.rest_drift;
+    if (T.rest) {
+      c.rest = J.rest[decision.rest_drift_index].summary();
+      c.rest_drift = options_.rest_drift_candidates[decision.rest_drift_index];
       const MagnitudeSummary& chosen = T.rest_absolute ? c.rest_absolute : c.rest;
-      c.rest_basis = T.rest_absolute ? absolute_basis : deviation_basis;
-      T.rest = T.rest_absolute ? absolute : deviation;
       T.rest_band = chosen.p99;
       c.rest_contact = contact(chosen, c.rest_basis);
-    } else if (c.rest.samples > 0) {
+    } else if (decision.rest_judged_slow) {
       slow.merge(J.rest_absolute);
       out.notes.push_back(joint + ": " + std::to_string(c.rest.samples) + " rest rows (fewer than " +
                           std::to_string(options_.min_state_samples) + "): judged by the slow rule");
     }
     const MagnitudeSummary slow_all = slow.summary();
-    if (slow_all.samples >= options_.min_state_samples) {
-      T.slow = decide(slow, slow_all, &c.slow_basis);
+    if (T.slow) {
       T.slow_band = slow_all.p99;
       c.slow_contact = contact(slow_all, c.slow_basis);
-    } else if (slow_all.samples > 0) {
+    } else if (decision.slow_judged_moving) {
       moving.merge(slow);
       // The envelope must cover these rows too: a point at |dq| = 0 with their largest |x|
       // does, as the line's slope is >= 0.
@@ -423,13 +468,11 @@ CalibrationResult Calibrator::result() const {
                           std::to_string(options_.min_state_samples) + "): judged by the moving rule");
     }
     const MagnitudeSummary moving_all = moving.summary();
-    if (moving_all.samples > 0) {
-      T.moving = decide(moving, moving_all, &c.moving_basis);
+    if (!decision.never_moved) {
       T.band = moving_all.p99;
       c.moving_contact = contact(moving_all, c.moving_basis);
     } else {
       // Never moved: the moving rule still needs a value (it judges rows with unknown speed).
-      T.moving = std::max(T.slow.value_or(0), T.rest_absolute ? T.rest.value_or(0) : with_margin(c.rest_absolute.max));
       T.band = std::max(T.slow_band, c.rest_absolute.p99);
       out.notes.push_back(joint + " never moved: its moving threshold is its largest |" + name + "| at low speed");
     }
@@ -473,6 +516,179 @@ CalibrationResult Calibrator::result() const {
       throw Error(name + ": the residual is 0 on every row; a percent margin gives no threshold (use --margin in Nm)");
     out.thresholds.joints.push_back(T);
     out.joints.push_back(c);
+  }
+  out.out_of_sample = check_out_of_sample();
+  return out;
+}
+
+JointDecision Calibrator::decide_joint(const JointTails& tails) const {
+  JointDecision out;
+  JointThreshold& T = out.threshold;
+  auto with_margin = [&](double x) {
+    return options_.margin_nm ? x + *options_.margin_nm : x * (1 + options_.margin_percent / 100);
+  };
+  // The threshold of one state from its peaks, and how it was decided.
+  auto decide = [&](const TailSampler& sampler, ThresholdBasis* basis) {
+    const std::vector<TailPeak> largest = sampler.largest();
+    basis->tail = fit_tail(largest, sampler.peaks(), sampler.seconds(), options_.tail);
+    double threshold = with_margin(largest.empty() ? 0.0 : largest.front().m);
+    if (options_.rule == ThresholdRule::rate && basis->tail.ok) {
+      const double floor = with_margin(basis->tail.largest_kept);
+      // The level of the asked rate, also where the data cannot vouch for it (thin data):
+      // the threshold is then the tail's extrapolation, and vouched_per_hour says what the
+      // data do vouch for.
+      const double level = basis->tail.tail.level(options_.false_alarms_per_hour);
+      basis->from_tail = level > floor;
+      threshold = std::max(level, floor);
+    }
+    if (basis->tail.ok) {
+      basis->per_hour = basis->tail.tail.rate_over(threshold);
+      basis->vouched_per_hour = std::max(basis->per_hour, basis->tail.supported_per_hour);
+    } else {
+      // Without a tail, the largest peak + margin: crossed about once per exposure, as far as
+      // the data say.
+      basis->vouched_per_hour = basis->tail.supported_per_hour;
+    }
+    return threshold;
+  };
+  TailSampler slow = tails.slow, moving = tails.moving;
+  std::uint64_t slow_rows = tails.slow_rows, moving_rows = tails.moving_rows;
+  if (tails.rest_rows >= options_.min_state_samples) {
+    // Whichever rest statistic needs the lower threshold on these data: the deviation from
+    // the settled baseline (static friction held at rest cancels out), or the plain |x|
+    // (better when the residual moves at rest, e.g. a controller ramping torque against
+    // stiction before a breakaway, while the friction model holds its level).
+    // Among the drift times, the one that sees the smallest contact of the rise time aimed at.
+    ThresholdBasis deviation_basis, absolute_basis;
+    double deviation = INFINITY, best_cost = INFINITY;
+    for (std::size_t d = 0; d < tails.rest.size(); ++d) {
+      ThresholdBasis basis;
+      const double threshold = decide(tails.rest[d], &basis);
+      const double cost = threshold / drift_gain(options_.rest_drift_candidates[d], options_.contact_rise);
+      out.rest_drift_costs.emplace_back(threshold, cost);
+      if (cost < best_cost) {
+        best_cost = cost;
+        deviation = threshold;
+        deviation_basis = basis;
+        out.rest_drift_index = d;
+      }
+    }
+    const double absolute = decide(tails.rest_absolute, &absolute_basis);
+    T.rest_absolute = absolute < best_cost;
+    T.rest_drift = T.rest_absolute ? 0 : options_.rest_drift_candidates[out.rest_drift_index];
+    out.rest_basis = T.rest_absolute ? absolute_basis : deviation_basis;
+    T.rest = T.rest_absolute ? absolute : deviation;
+  } else if (tails.rest_rows > 0) {
+    slow.merge(tails.rest_absolute);
+    slow_rows += tails.rest_rows;
+    out.rest_judged_slow = true;
+  }
+  if (slow_rows >= options_.min_state_samples) {
+    T.slow = decide(slow, &out.slow_basis);
+  } else if (slow_rows > 0) {
+    moving.merge(slow);
+    moving_rows += slow_rows;
+    out.slow_judged_moving = true;
+  }
+  if (moving_rows > 0) {
+    T.moving = decide(moving, &out.moving_basis);
+  } else {
+    // Never moved: the moving rule still needs a value (it judges rows with unknown speed).
+    out.never_moved = true;
+    const auto at_rest = tails.rest_absolute.largest();
+    T.moving = std::max(T.slow.value_or(0), T.rest_absolute ? T.rest.value_or(0) : with_margin(at_rest.empty() ? 0.0 : at_rest.front().m));
+    // Not data of its own: it stands for what the state it was taken from does.
+    out.moving_basis.per_hour = T.slow ? out.slow_basis.per_hour : out.rest_basis.per_hour;
+    out.moving_basis.vouched_per_hour = T.slow ? out.slow_basis.vouched_per_hour : out.rest_basis.vouched_per_hour;
+  }
+  return out;
+}
+
+OutOfSample Calibrator::check_out_of_sample() const {
+  OutOfSample out;
+  std::vector<std::size_t> parts;  // the stretches with counted rows
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    std::uint64_t rows = 0;
+    for (const auto& P : parts_[i].joints) rows += P.moving_rows + P.slow_rows + P.rest_rows;
+    if (rows > 0) parts.push_back(i);
+  }
+  if (!options_.out_of_sample || parts.size() < 2) return out;
+  out.stretches = parts.size();
+  const char* names[] = {"moving", "slow", "rest"};
+  for (std::size_t j = 0; j < joints_.size(); ++j)
+    for (const char* state : names) {
+      OutOfSample::State s;
+      s.joint = j;
+      s.state = state;
+      out.states.push_back(s);
+    }
+  // What each left-out calibration stands for: the rate its data vouch for.
+  auto rate = [&](const ThresholdBasis& basis) {
+    return std::isfinite(basis.vouched_per_hour) ? basis.vouched_per_hour : options_.false_alarms_per_hour;
+  };
+  for (const std::size_t i : parts) {
+    for (std::size_t j = 0; j < joints_.size(); ++j) {
+      const JointTails& held = parts_[i].joints[j];
+      JointTails others(options_.peak_window, options_.rest_drift_candidates.size());
+      for (const std::size_t k : parts)
+        if (k != i) others.merge(parts_[k].joints[j]);
+      if (others.moving_rows + others.slow_rows + others.rest_rows == 0) continue;
+      const JointDecision d = decide_joint(others);
+      const JointThreshold& T = d.threshold;
+      // Each state's rows judged by the rule the detector applies to them.
+      struct Rule {
+        double threshold;
+        double per_hour;
+      };
+      const Rule moving{T.moving, rate(d.moving_basis)};
+      const Rule slow = T.slow ? Rule{*T.slow, rate(d.slow_basis)} : moving;
+      const Rule rest = T.rest ? Rule{*T.rest, rate(d.rest_basis)} : slow;
+      const TailSampler& rest_peaks = T.rest && !T.rest_absolute ? held.rest[d.rest_drift_index] : held.rest_absolute;
+      const std::pair<const TailSampler*, Rule> judged[] = {{&held.moving, moving}, {&held.slow, slow}, {&rest_peaks, rest}};
+      for (std::size_t s = 0; s < 3; ++s) {
+        OutOfSample::State& state = out.states[3 * j + s];
+        const TailSampler& peaks = *judged[s].first;
+        const double seconds = peaks.seconds();
+        state.seconds += seconds;
+        state.expected += judged[s].second.per_hour * seconds / 3600;
+        const std::vector<TailPeak> largest = peaks.largest();
+        std::size_t over = 0;
+        while (over < largest.size() && largest[over].m > judged[s].second.threshold) ++over;
+        state.crossings += over;
+        state.at_least = state.at_least || (over == largest.size() && peaks.peaks() > largest.size());
+        for (std::size_t k = 0; k < over; ++k) state.first.push_back(largest[k]);
+      }
+    }
+  }
+  for (auto& state : out.states) {
+    std::sort(state.first.begin(), state.first.end(), [](const TailPeak& a, const TailPeak& b) { return a.m > b.m; });
+    if (state.first.size() > 3) state.first.resize(3);
+    out.crossings += state.crossings;
+    out.expected += state.expected;
+  }
+  // The data's time: per joint it is the same, so one joint's states give it.
+  for (std::size_t s = 0; s < 3 && s < out.states.size(); ++s) out.seconds += out.states[s].seconds;
+  return out;
+}
+
+std::string format_out_of_sample(const CalibrationResult& r) {
+  const std::string sig(signal_name(r.thresholds.signal));
+  const OutOfSample& o = r.out_of_sample;
+  if (o.stretches < 2) return "# " + sig + " out of sample: not checked (the data are one stretch)\n";
+  const double hours = o.seconds / 3600;
+  std::string out = "# " + sig + " out of sample: " + std::to_string(o.stretches) +
+                    " stretches, each left out in turn: " + std::to_string(o.crossings) + " false alarms in " +
+                    core::significant(hours, 3) + " h (" + core::significant(o.seen_per_hour(), 3) + " per h), stated " +
+                    core::significant(o.expected, 3) + " (" + core::significant(o.stated_per_hour(), 3) + " per h); as many or more by chance: " +
+                    core::significant(o.chance(), 3) + "\n";
+  for (const auto& s : o.states) {
+    if (s.crossings == 0) continue;
+    out += "# out of sample " + sig + std::to_string(s.joint + 1) + " " + s.state + ": " + (s.at_least ? ">=" : "") +
+           std::to_string(s.crossings) + " in " + core::significant(s.seconds, 4) + " s, stated " + core::significant(s.expected, 3);
+    for (std::size_t k = 0; k < s.first.size(); ++k)
+      out += (k ? ", " : "; largest ") + core::significant(s.first[k].m, 4) + " Nm at " + s.first[k].where + " (t=" +
+             core::significant(s.first[k].t, 6) + " s)";
+    out += "\n";
   }
   return out;
 }
@@ -536,6 +752,19 @@ std::string format_calibration_report(const CalibrationResult& r) {
              "; threshold from " +
              (b.from_tail ? "the tail" : "the largest peak + margin") + "\n";
     };
+    // What the threshold rests on, and the rarest rate those data vouch for.
+    auto data_line = [&](const char* state, const ThresholdBasis& b) {
+      if (!(b.tail.seconds > 0)) return;
+      const double vouched = b.tail.supported_per_hour;
+      out += "# joint " + std::to_string(j + 1) + " " + state + " data: " + core::significant(b.tail.seconds, 4) + " s, " +
+             std::to_string(b.tail.peaks) + " independent peaks, " + std::to_string(b.tail.outliers.size()) +
+             " left out; they vouch for rates down to " + core::significant(vouched, 3) + " per h";
+      if (r.rule == ThresholdRule::rate && vouched > r.false_alarms_per_hour)
+        out += ", not the " + core::significant(r.false_alarms_per_hour, 3) + " asked (" +
+               core::significant(vouched / r.false_alarms_per_hour, 3) + " times rarer): the threshold stands for " +
+               core::significant(b.vouched_per_hour, 3);
+      out += "\n";
+    };
     if (r.thresholds.joints[j].rest && !r.thresholds.joints[j].rest_absolute && !c.rest_drift_costs.empty()) {
       out += "# joint " + std::to_string(j + 1) + " rest baseline: follows drift at " + core::significant(c.rest_drift, 6) + " s (" +
              "drift time: threshold, smallest contact seen";
@@ -547,6 +776,9 @@ std::string format_calibration_report(const CalibrationResult& r) {
     tail_line("moving", c.moving_basis);
     if (r.thresholds.joints[j].slow) tail_line("slow", c.slow_basis);
     if (r.thresholds.joints[j].rest) tail_line("rest", c.rest_basis);
+    data_line("moving", c.moving_basis);
+    if (r.thresholds.joints[j].slow) data_line("slow", c.slow_basis);
+    if (r.thresholds.joints[j].rest) data_line("rest", c.rest_basis);
   }
   for (std::size_t j = 0; j < r.joints.size(); ++j) {
     const auto& c = r.joints[j];
@@ -564,6 +796,11 @@ std::string format_calibration_report(const CalibrationResult& r) {
   if (std::isfinite(expected))
     out += "# " + sig + " false alarms expected: " + core::significant(expected, 3) +
            " per hour of logs like these (every joint and state at its rate and share of the time)\n";
+  const double vouched = r.vouched_false_alarms_per_hour();
+  if (std::isfinite(vouched))
+    out += "# " + sig + " false alarms vouched: " + core::significant(vouched, 3) +
+           " per hour of logs like these (every joint and state at the rarest rate its data vouch for, or its rate if more frequent)\n";
+  out += format_out_of_sample(r);
   for (const auto& note : r.notes) out += "# note: " + note + "\n";
   for (const auto& warning : r.warnings) out += "# warning: " + warning + "\n";
   return out;

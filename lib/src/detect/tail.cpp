@@ -114,6 +114,13 @@ double ParetoTail::level(double per_hour) const {
 
 double ParetoTail::rate_over(double u) const { return rate * pareto_survival(u - u0, sigma, xi); }
 
+double ParetoTail::supported_rate(double uncertainty) const {
+  if (!(rate > 0) || peaks <= 0 || !(uncertainty > 1)) return NAN;
+  const double spread = std::log(uncertainty);
+  const double reach = std::sqrt(std::max(0.0, peaks * spread * spread - 1));
+  return rate * std::exp(-reach);
+}
+
 bool TailFitOptions::IsValid(std::string* why) const {
   auto bad = [&](const char* text) {
     if (why) *why = text;
@@ -124,6 +131,7 @@ bool TailFitOptions::IsValid(std::string* why) const {
   if (max_outliers < 0) return bad("max outliers must be >= 0");
   if (min_peaks < 2) return bad("a tail fit needs at least 2 peaks over its base level");
   if (min_shape_peaks < min_peaks) return bad("the shape needs at least as many peaks as the fit");
+  if (!(rate_uncertainty > 1 && std::isfinite(rate_uncertainty))) return bad("rate uncertainty factor must be > 1");
   return true;
 }
 
@@ -133,6 +141,8 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
   if (!options.IsValid(&why)) throw Error(why);
   TailFit fit;
   fit.seconds = seconds;
+  fit.peaks = std::max<std::uint64_t>(total_peaks, largest.size());
+  if (seconds > 0) fit.supported_per_hour = 3600 / seconds;
   std::vector<TailPeak> peaks = largest;  // largest first
   std::uint64_t total = std::max<std::uint64_t>(total_peaks, peaks.size());
   // Exceedances used, within what was kept: for the exponential tail the square root of all
@@ -169,18 +179,25 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
     fit.largest_kept = peaks.empty() ? 0 : peaks.front().m;
     return fit;
   }
-  // Outliers: the largest peak, judged against the tail of the peaks below it.
+  // Outliers (generalised ESD): the i-th largest peak judged against the tail of the peaks
+  // below it, for every i up to the cap; the outliers are the peaks down to the deepest extreme
+  // one. Testing from the top down and stopping at the first ordinary peak would let a second
+  // glitch, which widens the tail the first is judged by, mask both.
   std::size_t removed = 0;
   const std::size_t cap = std::min<std::size_t>(static_cast<std::size_t>(options.max_outliers), total / 10);
-  while (removed < cap) {
+  for (std::size_t i = 1; i <= cap; ++i) {
     ParetoTail below;
-    if (!fit_below(removed + 1, &below)) break;
-    // Judged with a tail no lighter than exponential: a bounded fit (xi < 0) may end below
-    // peaks that recur (the same reversal every cycle), and would call each of them impossible.
-    const double survival = pareto_survival(peaks[removed].m - below.u0, below.sigma, std::max(below.xi, 0.0));
+    if (!fit_below(i, &below)) break;
+    // Judged with the tail's predictive distribution, not its point estimate: a scale estimated
+    // as the mean of k exponential excesses leaves a further excess Lomax distributed,
+    // P(Y > y) = (1 + y / (k sigma))^-k, i.e. a generalised Pareto tail of shape 1/k. From a
+    // handful of peaks, the plug-in exp(-y / sigma) calls ordinary peaks of a few scales
+    // impossible. Never lighter than that: a bounded fit (xi < 0) may end below peaks that
+    // recur (the same reversal every cycle), and would call each of them impossible.
+    const double shape = std::max(below.xi, 1.0 / below.peaks);
+    const double survival = pareto_survival(peaks[i - 1].m - below.u0, below.sigma, shape);
     const double any = -std::expm1(static_cast<double>(below.peaks) * std::log1p(-std::min(survival, 1.0)));
-    if (!(any < options.outlier_probability)) break;
-    ++removed;
+    if (any < options.outlier_probability) removed = i;
   }
   fit.outliers.assign(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(removed));
   peaks.erase(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(removed));
@@ -188,6 +205,7 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
   fit.largest_kept = peaks.front().m;
   fit.ok = fit_below(0, &fit.tail, &fit.shape);
   if (!fit.ok) fit.why = "too few peaks once the outliers are removed";
+  else fit.supported_per_hour = fit.tail.supported_rate(options.rate_uncertainty);
   return fit;
 }
 

@@ -40,6 +40,10 @@ struct CalibrateStreamsOptions {
   // level being off by the 2-3 uncertainties seen where the data are thin (a creep through
   // the Stribeck dip), while at speed, where the fit is tight, the band stays hundredths of a Nm.
   double friction_band_sigmas = 3;
+  // A gap in time longer than this (s, > 0) starts a new stretch of the data for the
+  // out-of-sample check (CalibrationResult::out_of_sample), as a new log does; the gap itself is
+  // no exposure.
+  double stretch_gap = 10;
   ReportFormat format = ReportFormat::text;
   // The profile to compare with and update ("": none, report only); where the updated profile
   // goes ("": the profile itself, "-": standard output, else a new file); dry_run: report only.

@@ -204,6 +204,8 @@ struct CalibrationOptions {
   // Seconds at the start of each stream that do not count (the observer settles), >= 0. The
   // motion states advance through them all the same.
   double skip = 0;
+  // Check the thresholds out of sample when the data hold two or more stretches (OutOfSample).
+  bool out_of_sample = true;
   // Fewest rows for a slow or rest threshold; with fewer, those rows are judged by the next
   // rule down (rest -> slow -> moving) and calibrated with it.
   std::uint64_t min_state_samples = 100;
@@ -228,6 +230,36 @@ struct ThresholdBasis {
   TailFit tail;            // the tail fit (tail.ok false when too few peaks; see tail.why)
   // False alarms per hour the threshold stands for under the fitted tail; NaN without a fit.
   double per_hour = NAN;
+  // The same, but never below the rarest rate the data vouch for (tail.supported_per_hour):
+  // a rarer figure is the tail's extrapolation, not a statement the data back. Without a fit,
+  // the largest peak's own rate (once per exposure). NaN without data.
+  double vouched_per_hour = NAN;
+};
+
+// The declustered peaks and row counts of one joint's motion states, from some of the rows:
+// what its thresholds are decided from (see decide_joint).
+struct JointTails {
+  // `window`: seconds between independent excursions (> 0); `drifts`: rest drift candidates.
+  JointTails(double window, std::size_t drifts);
+  TailSampler moving, slow, rest_absolute;
+  std::vector<TailSampler> rest;  // |x - baseline| at rest, per drift-time candidate
+  std::uint64_t moving_rows = 0, slow_rows = 0, rest_rows = 0;
+  // Rows after this belong to a new stream.
+  void begin_stream();
+  // Adds the peaks and rows of another part of the data (other streams).
+  void merge(const JointTails& other);
+};
+
+// One joint's thresholds as decided from its tails, and how.
+struct JointDecision {
+  JointThreshold threshold;  // moving, slow, rest, rest_absolute, rest_drift (no bands)
+  ThresholdBasis moving_basis, slow_basis, rest_basis;
+  std::size_t rest_drift_index = 0;  // the chosen drift candidate (when rest, not absolute)
+  // Per drift candidate: the threshold it needs and the smallest contact it sees, Nm.
+  std::vector<std::pair<double, double>> rest_drift_costs;
+  bool rest_judged_slow = false;    // too few rest rows: judged (and calibrated) by the slow rule
+  bool slow_judged_moving = false;  // too few slow rows: judged by the moving rule
+  bool never_moved = false;
 };
 
 // Per-joint results of a calibration.
@@ -247,6 +279,33 @@ struct JointCalibration {
   bool rest_contact = false;    // rest max looks like a contact
 };
 
+// The calibration's promise checked out of sample: each stretch of the data (a log, or the part
+// of a log after a clock step or a long gap) in turn is left out, the others are calibrated
+// with the same options, and the left-out stretch's declustered peaks over those thresholds
+// are counted (each one an excursion the detector would raise an event for), against the
+// rate the left-out calibration states for that stretch's time in each state.
+struct OutOfSample {
+  struct State {
+    std::size_t joint = 0;  // 0-based
+    std::string state;      // moving, slow, rest (rows at rest, whichever statistic)
+    std::uint64_t crossings = 0;  // left-out peaks over the left-out calibration's threshold
+    double seconds = 0;           // left-out time in the state, s
+    double expected = 0;          // crossings the left-out calibrations state for that time
+    bool at_least = false;        // more peaks crossed than were kept: crossings is a bound
+    std::vector<TailPeak> first;  // the largest few crossings, for the report
+  };
+  std::size_t stretches = 0;    // stretches left out in turn (0: fewer than 2, no check)
+  std::uint64_t crossings = 0;  // summed over joints and states (an upper bound on events)
+  double seconds = 0;           // the data's time, s
+  double expected = 0;          // the crossings the calibrations stated for it
+  std::vector<State> states;    // per joint and state with time in it
+  // Per hour of logs: seen, and as stated by the left-out calibrations (NaN without a check).
+  double seen_per_hour() const { return seconds > 0 ? crossings / (seconds / 3600) : NAN; }
+  double stated_per_hour() const { return seconds > 0 ? expected / (seconds / 3600) : NAN; }
+  // P(N >= crossings) for N Poisson with mean `expected`: under 0.05 the promise failed.
+  double chance() const;
+};
+
 struct CalibrationResult {
   Thresholds thresholds;
   std::vector<JointCalibration> joints;
@@ -263,6 +322,8 @@ struct CalibrationResult {
   std::vector<std::string> notes;
   // Maxima that look like a contact (see CalibrationOptions::contact_ratio), one line each.
   std::vector<std::string> warnings;
+  // The promise checked out of sample (stretches 0 when the data are one stretch).
+  OutOfSample out_of_sample;
   // True when any joint's max looks like a contact.
   bool any_contact() const;
   // False alarms the thresholds stand for, per hour of logs whose motion is like the
@@ -271,6 +332,9 @@ struct CalibrationResult {
   // A sum over joints, so an upper bound on events (one event may cross several joints). NaN
   // when no joint has rows.
   double expected_false_alarms_per_hour() const;
+  // The same with every state at the rate its data vouch for (ThresholdBasis::vouched_per_hour):
+  // what the thresholds can be held to where the data are too short for the rate asked.
+  double vouched_false_alarms_per_hour() const;
 };
 
 // Accumulates collision-free rows of one signal over one or more streams.
@@ -290,6 +354,7 @@ class Calibrator {
   template <class Where>
   void add(double t, const double* x, const double* dq, Where&& where, const double* x_rest = nullptr) {
     if (x_rest) rest_raw_ = true;
+    if (parts_.empty()) begin_part("");
     const double dt = std::isnan(t_prev_) || !(t > t_prev_) ? 0.0 : t - t_prev_;
     t_prev_ = t;
     if (std::isnan(t_start_)) t_start_ = t;
@@ -300,6 +365,7 @@ class Calibrator {
       for (std::size_t j = 0; j < joints_.size(); ++j) arm_still = arm_still && std::fabs(dq[j]) < options_.rest_rule.velocity;
     for (std::size_t j = 0; j < joints_.size(); ++j) {
       auto& J = joints_[j];
+      JointTails& P = parts_.back().joints[j];
       MotionState state = MotionState::moving;
       const double xr = x_rest ? x_rest[j] : x[j];
       if (dq && options_.rest_state) state = J.tracker.update(t, dq[j], xr, true, arm_still);
@@ -308,7 +374,10 @@ class Calibrator {
         if (!J.was_rest)
           for (auto& b : J.drifting) b.start(t, J.tracker.baseline());
         for (std::size_t d = 0; d < J.drifting.size(); ++d) {
-          if (counted) J.rest[d].add(xr - J.drifting[d].value(), t, dt, where);
+          if (counted) {
+            J.rest[d].add(xr - J.drifting[d].value(), t, dt, where);
+            P.rest[d].add(std::fabs(xr - J.drifting[d].value()), t, dt, where);
+          }
           J.drifting[d].update(t, xr, options_.rest_drift_candidates[d]);
         }
       }
@@ -316,21 +385,35 @@ class Calibrator {
       if (!counted) continue;
       if (state == MotionState::rest) {
         J.rest_absolute.add(xr, t, dt, where);
+        P.rest_absolute.add(std::fabs(xr), t, dt, where);
+        P.rest_rows += !std::isnan(xr);
       } else if (state == MotionState::slow) {
         J.slow.add(x[j], t, dt, where);
+        P.slow.add(std::fabs(x[j]), t, dt, where);
+        P.slow_rows += !std::isnan(x[j]);
       } else {
         // Beyond the friction model's own uncertainty at this speed (0 without a band).
         const double widen = signal_ == Signal::mu && dq ? options_.friction_band.width(j, dq[j]) : 0.0;
         const double beyond = widen > 0 && !std::isnan(x[j]) ? std::max(0.0, std::fabs(x[j]) - widen) : x[j];
         J.moving.add(beyond, t, dt, where);
+        P.moving.add(std::fabs(beyond), t, dt, where);
+        P.moving_rows += !std::isnan(beyond);
         if (dq && options_.envelope) J.envelope.add(std::fabs(dq[j]), std::fabs(beyond));
       }
     }
   }
 
+  // Rows after this count as a new stretch of the same stream for the out-of-sample check
+  // (a long gap: what follows was recorded apart); the motion states restart as for a stream.
+  void begin_stretch(const std::string& name);
+
   // Thresholds and report from everything added. Throws momentum::Error when a joint has no
   // finite sample, or its threshold would be 0 (an all-zero residual with a percent margin).
   CalibrationResult result() const;
+
+  // One joint's thresholds from its tails, by the rules result() applies (the threshold rule,
+  // the margin, the rest statistic and drift time, the fallback of states with too few rows).
+  JointDecision decide_joint(const JointTails& tails) const;
 
  private:
   struct Joint {
@@ -342,9 +425,17 @@ class Calibrator {
     MagnitudeStats rest_absolute;
     EnvelopeFitter envelope;
   };
+  // The tails of one stretch of the data, for the out-of-sample check.
+  struct Part {
+    std::string name;
+    std::vector<JointTails> joints;
+  };
+  void begin_part(const std::string& name);
+  OutOfSample check_out_of_sample() const;
   Signal signal_;
   CalibrationOptions options_;
   std::vector<Joint> joints_;
+  std::vector<Part> parts_;
   std::vector<std::string> streams_;
   bool have_velocity_ = true;
   bool rest_raw_ = false;
@@ -358,6 +449,12 @@ class Calibrator {
 // as '#' lines. Columns: signal joint state samples seconds rms p99 p99.9 max t_max where
 // threshold.
 std::string format_calibration_report(const CalibrationResult& result);
+
+// The '#' lines of the out-of-sample check (OutOfSample), part of the report:
+//   # mu out of sample: 9 stretches, each left out in turn: 3 false alarms in 0.25 h (12 per h),
+//   stated 1.2 (4.8 per h); as many or more by chance: 0.12
+// then one line per joint and state with crossings, naming the largest few.
+std::string format_out_of_sample(const CalibrationResult& result);
 
 // '#' lines comparing the thresholds in place (`old`, or nullptr when the profile has none for
 // the signal) with the new ones, one per joint and state, for awk:
