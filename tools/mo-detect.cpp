@@ -71,6 +71,9 @@ int main(int argc, char** argv) {
   app.add_option("--hook-queue", options.hook_queue, "commands of one hook waiting for a place; more are dropped (64)")
       ->type_name("N")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--stall", options.stall, "a live input quiet this long after a row is blind, s (2; 0: off)")
+      ->type_name("SECONDS")
+      ->check(CLI::NonNegativeNumber);
   double max_blind = 0.01;
   app.add_option("--max-blind", max_blind, "exit 4 when blind for more than this share of the time (0.01)")
       ->type_name("FRACTION")

@@ -177,3 +177,17 @@ TEST(CommandRunner, FailureWarningsAreCapped) {
   for (const auto& w : warnings) EXPECT_NE(w.find(": --on-contact command exited with status 7"), std::string::npos) << w;
   EXPECT_EQ(report, "--on-contact: 12 of 12 commands failed (7 not shown)");
 }
+
+// mo-detect --stall: a wait on a quiet pipe gives up after its time, without a signal.
+TEST(InterruptWatch, AWaitWithATimeoutEndsOnAQuietPipe) {
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  InterruptWatch watch;
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(watch.wait_readable(fds[0], 50), -1);
+  EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(50));
+  ASSERT_EQ(::write(fds[1], "x", 1), 1);
+  EXPECT_EQ(watch.wait_readable(fds[0], 50), 1);
+  ::close(fds[1]);
+  ::close(fds[0]);
+}

@@ -58,17 +58,21 @@ InterruptWatch::~InterruptWatch() {
 
 int InterruptWatch::signal() const { return g_signal.load(); }
 
-bool InterruptWatch::wait_readable(int fd) const {
+bool InterruptWatch::wait_readable(int fd) const { return wait_readable(fd, -1) != 0; }
+
+int InterruptWatch::wait_readable(int fd, int timeout_ms) const {
   for (;;) {
-    if (g_signal.load() != 0) return false;
+    if (g_signal.load() != 0) return 0;
     struct pollfd fds[2] = {{fd, POLLIN, 0}, {g_pipe[0], POLLIN, 0}};
-    const int n = ::poll(fds, 2, -1);
+    // A signal's EINTR restarts the whole wait: a late reader sees a little more patience.
+    const int n = ::poll(fds, 2, timeout_ms < 0 ? -1 : timeout_ms);
     if (n < 0) {
       if (errno == EINTR) continue;
-      return true;  // let the read itself report the problem
+      return 1;  // let the read itself report the problem
     }
-    if (fds[1].revents) return false;
-    if (fds[0].revents) return true;
+    if (n == 0) return -1;
+    if (fds[1].revents) return 0;
+    if (fds[0].revents) return 1;
   }
 }
 

@@ -67,9 +67,17 @@ class LiveInput {
 
   const std::string& open_path() const { return open_path_; }
   const std::string& display_name() const { return display_name_; }
-  // Waits for input; throws Interrupted when a signal arrived first.
-  void wait(const InterruptWatch& watch) const {
-    if (poll_fd_ >= 0 && !watch.wait_readable(poll_fd_)) throw Interrupted();
+  // Waits for input; throws Interrupted when a signal arrived first. With `stall_ms` > 0,
+  // calls `stalled` once when nothing came for that long, and waits on.
+  void wait(const InterruptWatch& watch, int stall_ms = 0, const std::function<void()>& stalled = {}) const {
+    if (poll_fd_ < 0) return;
+    if (stall_ms > 0 && stalled) {
+      const int ready = watch.wait_readable(poll_fd_, stall_ms);
+      if (ready == 0) throw Interrupted();
+      if (ready == 1) return;
+      stalled();
+    }
+    if (!watch.wait_readable(poll_fd_)) throw Interrupted();
   }
 
  private:
@@ -89,6 +97,7 @@ bool StreamDetectorOptions::IsValid(std::string* why) const {
   if (constant_thresholds.empty() && profile_path.empty()) return fail("give a profile (-p) or --threshold");
   if (pass && !open_output) return fail("pass needs open_output");
   if (hook_jobs < 1) return fail("--hook-jobs must be >= 1");
+  if (!(stall >= 0)) return fail("--stall must be >= 0 s");
   return true;
 }
 
@@ -400,11 +409,6 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
     } else {
       events = std::make_unique<EventWriter>(o.output, n, comments, identify != nullptr);
     }
-    stream::Writer* raw = passed.get();
-    in->before_read([raw, &live, &watch] {
-      if (raw && raw->interactive()) raw->flush();
-      live.wait(watch);
-    });
     std::optional<CommandRunner> runner, contact_runner, blind_runner;
     if (!o.on_collision.empty()) runner.emplace(o.on_collision, "--on-collision", o.hook_jobs, o.hook_queue);
     if (!o.on_contact.empty()) contact_runner.emplace(o.on_contact, "--on-contact", o.hook_jobs, o.hook_queue);
@@ -430,7 +434,17 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
         return;
       }
       if (spans_reported > kShownSpans) return;
-      warn(describe_blind_span(span) + (ended ? "" : ": detection goes on where it can"));
+      const bool partial = !ended && span.cause == BlindCause::not_finite;
+      warn(describe_blind_span(span) + (partial ? ": detection goes on where it can" : ""));
+    });
+    // A live input that stays quiet after a row: blind until the next row (--stall).
+    stream::Writer* raw = passed.get();
+    const int stall_ms = static_cast<int>(std::min(o.stall, 86400.0) * 1000);
+    const std::string stall_text = "no row for " + core::significant(o.stall, 3) + " s";
+    in->before_read([&, raw] {
+      if (raw && raw->interactive()) raw->flush();
+      const bool started = std::isfinite(summary.t_last);
+      live.wait(watch, started ? stall_ms : 0, [&] { blind.input_stopped(summary.t_last, stall_text, in->name()); });
     });
     std::uint64_t skipped_seen = 0;
     std::vector<std::string> residual_names = stream::joint_columns(prefix, n);

@@ -36,6 +36,9 @@ class InterruptWatch {
   // Blocks until `fd` has data (or end of file, or an error) or a signal arrives. Returns
   // false when a signal arrived.
   bool wait_readable(int fd) const;
+  // The same, giving up after `timeout_ms` (>= 0): 1 when `fd` is ready, 0 when a signal
+  // arrived, -1 when the time ran out.
+  int wait_readable(int fd, int timeout_ms) const;
 };
 
 // Runs `sh -c COMMAND` per event, detached from detection: posix_spawn, stdin from /dev/null,

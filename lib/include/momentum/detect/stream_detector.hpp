@@ -81,6 +81,10 @@ struct StreamDetectorOptions {
   // Command (sh -c) run at the start of every span in which the detector cannot judge (see
   // BlindWatch), without waiting ("": none): MOMENTUM_BLIND_CAUSE, MOMENTUM_T_START.
   std::string on_blind;
+  // A live input (a pipe, socket or terminal) that gives no row for this long after one came
+  // is a blind span ("input stopped"), reported at once and closed by the next row, s >= 0;
+  // 0: off. Stream time then jumps too, so the span's length is the time the rows did not cover.
+  double stall = 2.0;
   // Time every row for the summary's latency figures (two clock reads a row: a tenth of the
   // detector's own cost); off: they stay 0.
   bool measure_latency = false;
