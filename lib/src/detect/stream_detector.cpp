@@ -418,24 +418,22 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
     constexpr std::uint64_t kShownSpans = 10;
     std::uint64_t spans_reported = 0;
     BlindWatch blind([&](const BlindSpan& span, bool ended) {
-      if (!ended && blind_runner)
-        blind_runner->launch({"MOMENTUM_BLIND_CAUSE=" + std::string(blind_cause_name(span.cause)),
-                              "MOMENTUM_T_START=" + core::exact(span.t_start), "MOMENTUM_T_END=",
-                              "MOMENTUM_BLIND_DETAIL=" + span.detail},
-                             "blind span at t=" + core::exact(span.t_start));
-      // A span known only once complete has its hook now, with its end.
-      if (ended && !span.opened && blind_runner)
-        blind_runner->launch({"MOMENTUM_BLIND_CAUSE=" + std::string(blind_cause_name(span.cause)),
-                              "MOMENTUM_T_START=" + core::exact(span.t_start), "MOMENTUM_T_END=" + core::exact(span.t_end),
-                              "MOMENTUM_BLIND_DETAIL=" + span.detail},
-                             "blind span at t=" + core::exact(span.t_start));
-      if (ended && ++spans_reported > kShownSpans) {
-        if (spans_reported == kShownSpans + 1) warn("more blind spans are counted, not shown (see the summary at the end)");
-        return;
+      // The warning first: a hook's own output follows it.
+      if (!ended || ++spans_reported <= kShownSpans) {
+        if (spans_reported <= kShownSpans) {
+          const bool partial = !ended && span.cause == BlindCause::not_finite;
+          warn(describe_blind_span(span) + (partial ? ": detection goes on where it can" : ""));
+        }
+      } else if (spans_reported == kShownSpans + 1) {
+        warn("more blind spans are counted, not shown (see the summary at the end)");
       }
-      if (spans_reported > kShownSpans) return;
-      const bool partial = !ended && span.cause == BlindCause::not_finite;
-      warn(describe_blind_span(span) + (partial ? ": detection goes on where it can" : ""));
+      // A span that lasts has its hook when it opens; one known only once complete, now.
+      if (blind_runner && (!ended || !span.opened))
+        blind_runner->launch({"MOMENTUM_BLIND_CAUSE=" + std::string(blind_cause_name(span.cause)),
+                              "MOMENTUM_T_START=" + core::exact(span.t_start),
+                              "MOMENTUM_T_END=" + (ended ? core::exact(span.t_end) : std::string()),
+                              "MOMENTUM_BLIND_DETAIL=" + span.detail},
+                             "blind span at t=" + core::exact(span.t_start));
     });
     // A live input that stays quiet after a row: blind until the next row (--stall).
     stream::Writer* raw = passed.get();

@@ -226,11 +226,13 @@ class StreamDetector {
 
   // Detects on the stream at `input` ("-": standard input) to its end or to SIGINT/SIGTERM.
   // Warns (momentum::warn) when the thresholds need dq the stream lacks, when the chain cannot
-  // be built (events then go without identification), and at a clock step; a row whose time
-  // goes backwards is rejected (Reader::reject_row). Throws momentum::Error when the input
-  // cannot be read, lacks t or the signal's columns, when the profile has no thresholds for the
-  // signal or thresholds for another joint count, when rest is judged on r and the stream has
-  // none, and what the writers throw but a closed pipe (summary.output_closed).
+  // be built (events then go without identification), and for every blind span (BlindWatch:
+  // the first ten as they happen, summed up in summary.blind_text); a clock step back starts
+  // the detector again as on a new log; a row whose time goes backwards is rejected
+  // (Reader::reject_row). Throws momentum::Error when the input cannot be read (standard input
+  // closed, for one), lacks t or the signal's columns, when the profile has no thresholds for
+  // the signal or thresholds for another joint count, when rest is judged on r and the stream
+  // has none, and what the writers throw but a closed pipe (summary.output_closed).
   StreamDetectorSummary run(const std::string& input);
 
  private:
