@@ -1,11 +1,14 @@
 // mo-detect: collision events from residuals, live or on recorded logs. Exit status as grep:
 // 0 no collision, 1 collision, 2 error. The work is detect::StreamDetector's.
+#include <csignal>
 #include <cstdio>
+#include <cmath>
 #include <iostream>
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/contact/event_contact.hpp"
+#include "momentum/core/number.hpp"
 #include "momentum/detect/stream_detector.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -13,8 +16,16 @@ using namespace momentum;
 
 namespace {
 
-// 3: the input held no row at all, so nothing was checked (a warning says so).
-constexpr int kNoCollision = 0, kCollision = 1, kError = 2, kNoRows = 3;
+// 3: the input held no row at all, so nothing was checked (a warning says so). 4: no collision
+// in what could be judged, but the detector was blind (rows skipped, residuals not finite, a
+// clock step, the input stopped) for more than --max-blind of the time the rows cover.
+constexpr int kNoCollision = 0, kCollision = 1, kError = 2, kNoRows = 3, kBlind = 4;
+
+std::string signal_name(int number) {
+  if (number == SIGINT) return "SIGINT";
+  if (number == SIGTERM) return "SIGTERM";
+  return "signal " + std::to_string(number);
+}
 
 }  // namespace
 
@@ -55,6 +66,21 @@ int main(int argc, char** argv) {
       ->type_name("CMD");
   app.add_option("--on-contact", options.on_contact, "run CMD (sh -c) per contact once classified")->type_name("CMD");
   app.add_flag("--any-class", options.any_class, "--on-collision runs for every event at its detection");
+  app.add_option("--on-blind", options.on_blind, "run CMD (sh -c) per span in which the detector cannot judge")
+      ->type_name("CMD");
+  app.add_option("--hook-jobs", options.hook_jobs, "commands of one hook running at once (4)")
+      ->type_name("N")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--hook-queue", options.hook_queue, "commands of one hook waiting for a place; more are dropped (64)")
+      ->type_name("N")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--stall", options.stall, "a live input quiet this long after a row is blind, s (2; 0: off)")
+      ->type_name("SECONDS")
+      ->check(CLI::NonNegativeNumber);
+  double max_blind = 0.01;
+  app.add_option("--max-blind", max_blind, "exit 4 when blind for more than this share of the time (0.01)")
+      ->type_name("FRACTION")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_flag("--no-identify", no_identify, "no contact point, force or class (not even with a model and q)");
   contact::LocatorOptions locator;
   app.add_option("--link-radius", locator.link_radius, "radius of the cylinder searched for the contact point on links without collision shapes, m (0.05)")
@@ -87,8 +113,29 @@ int main(int argc, char** argv) {
       if (!locator.IsValid(&why)) throw cli::UsageError("--link-radius: " + why);
       if (!no_identify) options.annotator = contact::annotator_factory(locator, tool.profile());
       const auto summary = detect::StreamDetector(options).run(tool.inputs().empty() ? "-" : tool.inputs().front());
+      auto at = [&](double t) { return std::isfinite(t) ? " at t=" + core::exact(t) : std::string(" before the first row"); };
+      if (summary.output_closed) {
+        // Whoever reads the events went away: what follows was not detected on, so "no
+        // collision" would be a lie.
+        std::cerr << "mo-detect: error: the output was closed: detection stopped" << at(summary.t_last) << "\n";
+        return kError;
+      }
+      if (summary.interrupted) {
+        std::cerr << "mo-detect: " << signal_name(summary.signal) << ": detection stopped" << at(summary.t_last) << "\n";
+        // Before the header nothing was checked: as a stream without rows.
+        if (!summary.finished) return kNoRows;
+      }
+      if (!summary.blind_text.empty()) warn(summary.blind_text);
       if (stats && summary.finished) std::fputs(detect::format_stream_detector_stats(summary, "mo-detect").c_str(), stderr);
-      return summary.collisions > 0 ? kCollision : kNoCollision;
+      if (summary.collisions > 0) return kCollision;
+      if (summary.blind_share > max_blind) {
+        char share[64];
+        std::snprintf(share, sizeof share, "%.3g%% of the time (more than --max-blind %.3g%%)", 100 * summary.blind_share,
+                      100 * max_blind);
+        warn(std::string("no collision, but the detector was blind for ") + share);
+        return kBlind;
+      }
+      return kNoCollision;
     } catch (const cli::UsageError&) {
       throw;
     } catch (const std::exception& e) {

@@ -3,10 +3,14 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "momentum/detect/stream_detector.hpp"
 #include "momentum/stream/error.hpp"
@@ -131,6 +135,180 @@ TEST(StreamDetector, AnnotatorSeesEveryRowAndFillsTheEvents) {
   EXPECT_NE(text.find("point\n"), std::string::npos) << text;
   EXPECT_EQ(read_text(hooks), "collision collision\n");
   std::filesystem::remove_all(dir);
+}
+
+// Rows of `t,mu1,mu2` every 10 ms from t0 for `count` rows; mu1 = `value(t)`, mu2 = 0.
+std::string rows_from(double t0, int count, const std::function<std::string(int)>& mu1) {
+  std::string text;
+  char line[64];
+  for (int k = 0; k < count; ++k) {
+    std::snprintf(line, sizeof line, "%.2f,%s,0\n", t0 + 0.01 * k, mu1(k).c_str());
+    text += line;
+  }
+  return text;
+}
+
+std::vector<std::string> onsets(const std::string& events) {
+  std::vector<std::string> out;
+  std::istringstream lines(events);
+  for (std::string line; std::getline(lines, line);)
+    if (line.find(",onset,") != std::string::npos) out.push_back(line);
+  return out;
+}
+
+// A second log appended to a first whose clock ran far ahead (a controller clock reset): the
+// detector starts again at the step, its start-up skip counted from the new time line. Before,
+// the skip was measured from the first log's first time, so that t - 1000 < skip held for the
+// whole second log and its collision went unseen.
+TEST(StreamDetector, AClockStepBackStartsANewLog) {
+  const std::string input = temp_path("step.csv"), output = temp_path("step-events.csv");
+  auto pulse = [](int from, int to) {
+    return [from, to](int k) { return std::string(k >= from && k < to ? "5" : "0"); };
+  };
+  std::ofstream(input) << "t,mu1,mu2\n" + rows_from(1000, 51, pulse(20, 25)) + rows_from(0, 51, pulse(30, 35));
+  std::vector<std::string> warnings;
+  auto old = momentum::set_warning_sink([&](std::string_view m) { warnings.emplace_back(m); });
+  StreamDetectorOptions options;
+  options.constant_thresholds = {1, 1};
+  options.detector.skip = 0.1;
+  options.detector.hold = 0.05;
+  options.output = output;
+  const StreamDetectorSummary summary = StreamDetector(options).run(input);
+  momentum::set_warning_sink(old);
+  const auto found = onsets(read_text(output));
+  ASSERT_EQ(found.size(), 2u) << read_text(output);
+  EXPECT_EQ(found[0], "1000.2,1000.2,1,1,onset,1,,,5,0");
+  EXPECT_EQ(found[1], "0.3,0.3,1,1,onset,2,,,5,0");  // numbered on from the first log
+  EXPECT_EQ(summary.rows, 102u);
+  EXPECT_EQ(summary.events, 2u);
+  EXPECT_NEAR(summary.seconds, 1.0, 1e-9);  // 0.5 s per log; the step adds none
+  // The step is a blind span: the new log's start-up skip.
+  EXPECT_EQ(summary.blind_spans, 1u);
+  EXPECT_EQ(summary.blind_per_cause[static_cast<int>(BlindCause::clock_step)], 1u);
+  EXPECT_NEAR(summary.blind_seconds, 0.1, 1e-12);
+  EXPECT_NEAR(summary.blind_share, 0.1, 1e-9);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], input + ":53: blind from t=0 to t=0.1 (0.1 s): clock step back: the clock stepped back from "
+                                 "t=1000.5 to t=0");
+  std::remove(input.c_str());
+  std::remove(output.c_str());
+}
+
+// An event open at the step ends there (ended_by clock_step); the next log's hold times do not
+// reach back into the first.
+TEST(StreamDetector, AnEventOpenAtAClockStepEndsThere) {
+  const std::string input = temp_path("step-open.csv"), output = temp_path("step-open-events.csv");
+  std::ofstream(input) << "t,mu1,mu2\n" + rows_from(10, 11, [](int k) { return std::string(k >= 5 ? "5" : "0"); }) +
+                              rows_from(0, 30, [](int k) { return std::string(k >= 10 && k < 12 ? "5" : "0"); });
+  StreamDetectorOptions options;
+  options.constant_thresholds = {1, 1};
+  options.detector.hold = 0.05;
+  options.output = output;
+  momentum::WarningSink old = momentum::set_warning_sink([](std::string_view) {});
+  StreamDetector(options).run(input);
+  momentum::set_warning_sink(old);
+  const std::string text = read_text(output);
+  EXPECT_NE(text.find("10.05,10.05,1,1,end,1,10.1,clock_step,5,0\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("0.1,0.1,1,1,onset,2,,,5,0\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("0.1,0.1,1,1,end,2,0.12,release,5,0\n"), std::string::npos) << text;
+  std::remove(input.c_str());
+  std::remove(output.c_str());
+}
+
+// A drive dropout: mu1 NaN from t=0.5 to 0.7. Before, the run said nothing at all (0 events,
+// no warning, "0 bad rows"): now the span is reported when it begins and when it ends, and
+// summed up. mu2 is judged throughout: its collision inside the span is found.
+TEST(StreamDetector, NonFiniteResidualsAreABlindSpan) {
+  const std::string input = temp_path("nan.csv"), output = temp_path("nan-events.csv");
+  std::string text = "t,mu1,mu2\n";
+  for (int k = 0; k <= 100; ++k) {
+    char line[64];
+    std::snprintf(line, sizeof line, "%.2f,%s,%s\n", 0.01 * k, k >= 50 && k < 70 ? "nan" : "0", k == 60 ? "5" : "0");
+    text += line;
+  }
+  std::ofstream(input) << text;
+  std::vector<std::string> warnings;
+  auto old = momentum::set_warning_sink([&](std::string_view m) { warnings.emplace_back(m); });
+  StreamDetectorOptions options;
+  options.constant_thresholds = {1, 1};
+  options.detector.hold = 0;
+  options.output = output;
+  const StreamDetectorSummary summary = StreamDetector(options).run(input);
+  momentum::set_warning_sink(old);
+  EXPECT_EQ(summary.collisions, 1u);
+  EXPECT_EQ(onsets(read_text(output)), std::vector<std::string>{"0.6,0.6,2,2,onset,1,,,0,5"});
+  EXPECT_EQ(summary.blind_spans, 1u);
+  EXPECT_EQ(summary.blind_per_cause[static_cast<int>(BlindCause::not_finite)], 1u);
+  EXPECT_NEAR(summary.blind_seconds, 0.2, 1e-12);
+  EXPECT_NEAR(summary.blind_share, 0.2, 1e-12);
+  ASSERT_EQ(warnings.size(), 2u);
+  EXPECT_EQ(warnings[0], input + ":52: blind from t=0.5: residuals not finite: mu1 not finite: detection goes on where "
+                                 "it can");
+  EXPECT_EQ(warnings[1], input + ":52: blind from t=0.5 to t=0.7 (0.2 s): residuals not finite: mu1 not finite on 20 rows");
+  EXPECT_EQ(summary.blind_text,
+            "blind 1 time for 0.2 s of 1 s (20%): 1 residuals not finite\n  from t=0.5 to t=0.7 (0.2 s): residuals not finite");
+  std::remove(input.c_str());
+  std::remove(output.c_str());
+}
+
+// A bad row costs the time between its neighbours; a cut last row is where the input stopped.
+TEST(StreamDetector, SkippedRowsAndACutLastRowAreBlindSpans) {
+  const std::string input = temp_path("cut.csv"), output = temp_path("cut-events.csv");
+  std::ofstream(input) << "t,mu1,mu2\n0,0,0\n0.01,0,0\n0.02,x,0\n0.03,0,0\n0.04,0,0\n0.05,0";
+  StreamDetectorOptions options;
+  options.constant_thresholds = {1, 1};
+  options.output = output;
+  momentum::WarningSink old = momentum::set_warning_sink([](std::string_view) {});
+  momentum::RowWarningSink old_rows = momentum::set_row_warning_sink([](std::string_view, std::string_view) {});
+  const StreamDetectorSummary summary = StreamDetector(options).run(input);
+  momentum::set_warning_sink(old);
+  momentum::set_row_warning_sink(old_rows);
+  EXPECT_EQ(summary.rows, 4u);
+  EXPECT_EQ(summary.rows_skipped, 2u);
+  EXPECT_EQ(summary.blind_spans, 2u);
+  EXPECT_EQ(summary.blind_per_cause[static_cast<int>(BlindCause::rows_skipped)], 1u);
+  EXPECT_EQ(summary.blind_per_cause[static_cast<int>(BlindCause::input_stopped)], 1u);
+  EXPECT_NEAR(summary.blind_seconds, 0.02, 1e-12);  // 0.01 to 0.03; the cut row is a point
+  std::remove(input.c_str());
+  std::remove(output.c_str());
+}
+
+TEST(BlindWatch, SpansPerCauseWithTheirTimes) {
+  std::vector<std::pair<BlindSpan, bool>> reports;
+  BlindWatch watch([&](const BlindSpan& span, bool ended) { reports.emplace_back(span, ended); }, 2);
+  EXPECT_TRUE(watch.row(0, 0, "", "a:1"));
+  EXPECT_TRUE(watch.row(1, 3, "", "a:5"));     // three rows lost between 0 and 1
+  EXPECT_FALSE(watch.row(2, 0, "mu1", "a:6"));  // opens
+  EXPECT_FALSE(watch.row(3, 0, "mu1", "a:7"));
+  watch.clock_step(3, 0.5, 0.25, "a:8");  // closes the open span at the old line's last row
+  EXPECT_TRUE(watch.row(0.5, 0, "", "a:8"));
+  watch.input_stopped(0.5, "no row for 2 s", "a");
+  EXPECT_TRUE(watch.row(4.5, 0, "", "a:9"));
+  watch.finish(1, "a");
+  ASSERT_EQ(reports.size(), 7u);
+  EXPECT_EQ(reports[0].first.cause, BlindCause::rows_skipped);
+  EXPECT_EQ(reports[0].first.t_start, 0);
+  EXPECT_EQ(reports[0].first.t_end, 1);
+  EXPECT_EQ(reports[0].first.rows, 3u);
+  EXPECT_FALSE(reports[1].second);  // the NaN span as it opens
+  EXPECT_TRUE(std::isnan(reports[1].first.t_end));
+  EXPECT_EQ(reports[2].first.cause, BlindCause::not_finite);
+  EXPECT_EQ(reports[2].first.t_end, 3);
+  EXPECT_EQ(reports[2].first.rows, 2u);
+  EXPECT_EQ(reports[3].first.cause, BlindCause::clock_step);
+  EXPECT_EQ(reports[3].first.seconds(), 0.25);
+  EXPECT_FALSE(reports[4].second);
+  EXPECT_EQ(reports[5].first.cause, BlindCause::input_stopped);
+  EXPECT_EQ(reports[5].first.seconds(), 4);
+  EXPECT_EQ(reports[6].first.cause, BlindCause::input_stopped);  // the cut row at the end: a point
+  EXPECT_EQ(reports[6].first.seconds(), 0);
+  EXPECT_EQ(watch.spans(), 5u);
+  EXPECT_EQ(watch.seconds(), 1 + 1 + 0.25 + 4);
+  EXPECT_EQ(watch.kept().size(), 2u);
+  EXPECT_EQ(format_blind_summary(watch, 10),
+            "blind 5 times for 6.25 s of 10 s (62.5%): 1 rows skipped, 1 residuals not finite, 1 clock step back, "
+            "2 input stopped\n  from t=0 to t=1 (1 s): rows skipped\n  from t=2 to t=3 (1 s): residuals not finite\n"
+            "  and 3 more");
 }
 
 }  // namespace

@@ -148,6 +148,24 @@ TEST(Stream, BadRowsAreReportedWithTheirLineAndSkipped) {
   EXPECT_EQ(warnings.messages[2], path + ":6: expected 2 fields, got more");
 }
 
+// rows_skipped() runs ahead of the rows returned while the time-order policy holds rows (at
+// the start, and around a time that does not fit); rows_skipped_before() says how many lay
+// before each row returned, so that mo-detect can tell between which two rows they were.
+TEST(Stream, RowsSkippedBeforeEachRowFollowTheInputOrder) {
+  CapturedWarnings warnings;
+  std::string path = temp_path("skipped-before.csv");
+  // Line 4 a bad number, line 7 a wild time, lines 9 and 10 bad, line 12 a cut last row.
+  write_file(path, "t,q1\n0,1\n0.01,1\n0.02,x\n0.03,1\n0.04,1\n99,1\n0.05,1\nbad\nbad\n0.06,1\n0.07");
+  auto in = ms::Reader::open(path);
+  std::vector<std::pair<double, std::uint64_t>> seen;
+  while (const double* row = in->next()) seen.emplace_back(row[0], in->rows_skipped_before());
+  const std::vector<std::pair<double, std::uint64_t>> expected = {
+      {0, 0}, {0.01, 0}, {0.03, 1}, {0.04, 1}, {0.05, 2}, {0.06, 4}};
+  EXPECT_EQ(seen, expected);
+  EXPECT_EQ(in->rows_skipped(), 5u);
+  EXPECT_EQ(in->rows_skipped_before(), 5u);  // at the end, the cut last row too
+}
+
 TEST(Stream, StrictModeStopsAtTheFirstBadRow) {
   std::string path = temp_path("strict.csv");
   write_file(path, "t,q1\n0,1\n0.1,nanx\n0.2,3\n");

@@ -72,6 +72,7 @@ std::string_view end_reason_name(EndReason reason) {
     case EndReason::next: return "next";
     case EndReason::eof: return "eof";
     case EndReason::signal: return "signal";
+    case EndReason::clock_step: return "clock_step";
     case EndReason::none: break;
   }
   return "";
@@ -314,6 +315,7 @@ std::optional<Event> EventReader::parse(const std::string& line) const {
     else if (by == "next") e.ended_by = EndReason::next;
     else if (by == "eof") e.ended_by = EndReason::eof;
     else if (by == "signal") e.ended_by = EndReason::signal;
+    else if (by == "clock_step") e.ended_by = EndReason::clock_step;
     else if (!by.empty()) throw fail("bad ended_by '" + core::printable(by) + "'");
   }
   for (std::size_t c : c_peaks_) e.peaks.push_back(number(c, "peak"));

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -57,21 +58,28 @@ InterruptWatch::~InterruptWatch() {
 
 int InterruptWatch::signal() const { return g_signal.load(); }
 
-bool InterruptWatch::wait_readable(int fd) const {
+bool InterruptWatch::wait_readable(int fd) const { return wait_readable(fd, -1) != 0; }
+
+int InterruptWatch::wait_readable(int fd, int timeout_ms) const {
   for (;;) {
-    if (g_signal.load() != 0) return false;
+    if (g_signal.load() != 0) return 0;
     struct pollfd fds[2] = {{fd, POLLIN, 0}, {g_pipe[0], POLLIN, 0}};
-    const int n = ::poll(fds, 2, -1);
+    // A signal's EINTR restarts the whole wait: a late reader sees a little more patience.
+    const int n = ::poll(fds, 2, timeout_ms < 0 ? -1 : timeout_ms);
     if (n < 0) {
       if (errno == EINTR) continue;
-      return true;  // let the read itself report the problem
+      return 1;  // let the read itself report the problem
     }
-    if (fds[1].revents) return false;
-    if (fds[0].revents) return true;
+    if (n == 0) return -1;
+    if (fds[1].revents) return 0;
+    if (fds[0].revents) return 1;
   }
 }
 
 // ---- CommandRunner ---------------------------------------------------------------------
+
+CommandRunner::CommandRunner(std::string command, std::string option, std::size_t jobs, std::size_t queue)
+    : command_(std::move(command)), option_(std::move(option)), jobs_(std::max<std::size_t>(1, jobs)), queue_cap_(queue) {}
 
 CommandRunner::~CommandRunner() {
   try {
@@ -80,10 +88,8 @@ CommandRunner::~CommandRunner() {
   }
 }
 
-void CommandRunner::launch(const Event& event) {
+std::vector<std::string> event_variables(const Event& event) {
   std::vector<std::string> env;
-  for (char** e = environ; *e; ++e)
-    if (std::strncmp(*e, "MOMENTUM_", 9) != 0) env.emplace_back(*e);
   std::string joints, peaks;
   for (int j : event.joints) joints += (joints.empty() ? "" : " ") + std::to_string(j);
   for (double p : event.peaks) peaks += (peaks.empty() ? "" : " ") + core::exact(p);
@@ -101,6 +107,34 @@ void CommandRunner::launch(const Event& event) {
                                                                    : core::exact(event.contact.px) + " " +
                                                                          core::exact(event.contact.py) + " " +
                                                                          core::exact(event.contact.pz)));
+  return env;
+}
+
+void CommandRunner::launch(const Event& event) { launch(event_variables(event), "event " + std::to_string(event.id)); }
+
+void CommandRunner::launch(std::vector<std::string> variables, std::string label) {
+  ++launched_;
+  if (children_.size() < jobs_ && queue_.empty()) {
+    start(Job{std::move(variables), std::move(label)});
+  } else if (queue_.size() < queue_cap_) {
+    queue_.push_back(Job{std::move(variables), std::move(label)});
+  } else {
+    // Detection must not wait for its hooks: past the queue, events go without a command.
+    if (dropped_++ == 0)
+      warn(label + ": " + option_ + " command dropped: " + std::to_string(jobs_) + " running and " +
+           std::to_string(queue_cap_) + " waiting (more drops are counted)");
+  }
+}
+
+void CommandRunner::fail(const std::string& text) {
+  if (++failures_ <= kWarned) warn(text);
+}
+
+void CommandRunner::start(const Job& job) {
+  std::vector<std::string> env;
+  for (char** e = environ; *e; ++e)
+    if (std::strncmp(*e, "MOMENTUM_", 9) != 0) env.emplace_back(*e);
+  env.insert(env.end(), job.variables.begin(), job.variables.end());
   std::vector<char*> envp;
   for (auto& e : env) envp.push_back(e.data());
   envp.push_back(nullptr);
@@ -128,28 +162,26 @@ void CommandRunner::launch(const Event& event) {
   const int rc = ::posix_spawn(&pid, "/bin/sh", &actions, &attributes, argv, envp.data());
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
-  ++launched_;
   if (rc != 0) {
-    ++failures_;
-    warn("event " + std::to_string(event.id) + ": cannot run --on-collision command: " + std::strerror(rc));
+    fail(job.label + ": cannot run " + option_ + " command: " + std::strerror(rc));
     return;
   }
-  children_.emplace_back(pid, event.id);
+  children_.emplace_back(pid, job.label);
+  most_running_ = std::max(most_running_, children_.size());
 }
 
 void CommandRunner::collect(pid_t pid, int status) {
   for (auto it = children_.begin(); it != children_.end(); ++it) {
     if (it->first != pid) continue;
-    const std::uint64_t id = it->second;
+    const std::string label = std::move(it->second);
     children_.erase(it);
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
-    ++failures_;
     if (WIFEXITED(status))
-      warn("event " + std::to_string(id) + ": --on-collision command exited with status " +
-           std::to_string(WEXITSTATUS(status)));
+      fail(label + ": " + option_ + " command exited with status " + std::to_string(WEXITSTATUS(status)));
     else if (WIFSIGNALED(status))
-      warn("event " + std::to_string(id) + ": --on-collision command killed by signal " +
-           std::to_string(WTERMSIG(status)));
+      fail(label + ": " + option_ + " command killed by signal " + std::to_string(WTERMSIG(status)));
+    else
+      fail(label + ": " + option_ + " command failed");
     return;
   }
 }
@@ -167,16 +199,38 @@ void CommandRunner::reap() {
       ++i;
     }
   }
+  while (!queue_.empty() && children_.size() < jobs_) {
+    const Job job = std::move(queue_.front());
+    queue_.pop_front();
+    start(job);
+  }
 }
 
 void CommandRunner::wait_all() {
-  while (!children_.empty()) {
+  while (busy()) {
+    if (children_.empty()) {
+      reap();  // starts queued ones
+      continue;
+    }
     int status = 0;
     const pid_t pid = children_.front().first;
     const pid_t got = ::waitpid(pid, &status, 0);
     if (got == pid) collect(pid, status);
     else if (got < 0 && errno != EINTR) children_.erase(children_.begin());
+    reap();
   }
+}
+
+std::string CommandRunner::report() const {
+  std::string text;
+  if (failures_ > kWarned)
+    text += option_ + ": " + std::to_string(failures_) + " of " + std::to_string(launched_ - dropped_) +
+            " commands failed (" + std::to_string(failures_ - kWarned) + " not shown)";
+  if (dropped_ > 0)
+    text += (text.empty() ? "" : "; ") + option_ + ": " + std::to_string(dropped_) + " of " +
+            std::to_string(launched_) + " commands dropped (queue full: " + std::to_string(jobs_) +
+            " running, " + std::to_string(queue_cap_) + " waiting)";
+  return text;
 }
 
 }  // namespace momentum::detect

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cstring>
+#include <iterator>
 #include <unordered_set>
 
 #include "momentum/core/file.hpp"
@@ -25,7 +26,28 @@ void Reader::skip_bad(std::string_view kind, std::string_view message) {
   std::string text = location(raw_position_) + ": " + std::string(message);
   if (strict_) throw Error(text);
   ++rows_skipped_;
+  note_skip(raw_position_);
   warn_row(kind, text);
+}
+
+void Reader::note_skip(std::uint64_t position) {
+  // Merge with the last run when no good row was parsed since it began.
+  if (!pending_skips_.empty() && pending_skips_.back().last <= position &&
+      (!have_good_ || pending_skips_.back().last > last_good_position_)) {
+    pending_skips_.back().last = position;
+    ++pending_skips_.back().count;
+    return;
+  }
+  auto at = pending_skips_.end();
+  while (at != pending_skips_.begin() && std::prev(at)->last > position) --at;
+  pending_skips_.insert(at, SkipRun{position, 1});
+}
+
+void Reader::settle_skips(bool at_end) {
+  std::size_t done = 0;
+  while (done < pending_skips_.size() && (at_end || pending_skips_[done].last < position_))
+    skipped_before_ += pending_skips_[done++].count;
+  pending_skips_.erase(pending_skips_.begin(), pending_skips_.begin() + static_cast<std::ptrdiff_t>(done));
 }
 
 void Reader::reject_row(std::string_view kind, std::string_view detail) {
@@ -33,6 +55,7 @@ void Reader::reject_row(std::string_view kind, std::string_view detail) {
   if (!detail.empty()) text += ": " + std::string(detail);
   if (strict_) throw Error(text);
   ++rows_skipped_;
+  note_skip(position_);
   warn_row(kind, text);
 }
 
@@ -44,6 +67,7 @@ void Reader::start_time_order(const ReaderOptions& options) {
         std::string text = location(position) + ": " + std::string(time_fault_name(fault)) + ": " + detail;
         if (strict_) throw Error(text);
         ++rows_skipped_;
+        note_skip(position);
         warn_row(time_fault_name(fault), text + ": skipped");
       });
 }
@@ -59,6 +83,7 @@ const double* Reader::next() {
     const double* row = ended_ ? nullptr : read_row();
     position_ = raw_position_;
     if (row && rows_returned_) ++*rows_returned_;
+    settle_skips(row == nullptr);
     return row;
   }
   for (;;) {
@@ -66,11 +91,17 @@ const double* Reader::next() {
       position_ = row->position;
       time_mark_ = row->mark;
       if (rows_returned_) ++*rows_returned_;
+      settle_skips(false);
       return row->values.data();
     }
-    if (ended_) return nullptr;
+    if (ended_) {
+      settle_skips(true);
+      return nullptr;
+    }
     const double* raw = read_row();
     if (raw) {
+      last_good_position_ = raw_position_;
+      have_good_ = true;
       time_order_->push(raw, raw_position_);
     } else {
       ended_ = true;

@@ -27,8 +27,9 @@ namespace momentum::detect {
 enum class EventKind { onset, end };
 // Why an event ended: every joint back in its band for the hold time (release); a new contact
 // began while it was open (next: the row that opened the next event); end of input with the
-// event still open; SIGINT/SIGTERM with the event still open.
-enum class EndReason { none, release, next, eof, signal };
+// event still open; SIGINT/SIGTERM with the event still open; the clock stepped back with the
+// event still open (the detector starts again as on a new log).
+enum class EndReason { none, release, next, eof, signal, clock_step };
 
 std::string_view kind_name(EventKind kind);
 std::string_view end_reason_name(EndReason reason);

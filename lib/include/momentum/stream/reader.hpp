@@ -84,6 +84,10 @@ class Reader {
   // Rows parsed, and rows skipped (bad rows and rows dropped for their time).
   std::uint64_t rows_read() const { return rows_read_; }
   std::uint64_t rows_skipped() const { return rows_skipped_; }
+  // Rows skipped before the row last returned, in input order (all of them after next()
+  // returned nullptr). rows_skipped() runs ahead of it by the rows the time-order policy holds:
+  // with this, a tool knows between which two rows it returned each skipped row lay.
+  std::uint64_t rows_skipped_before() const { return skipped_before_; }
   // How the row last returned follows the one before it (TimeMark::none without the policy).
   TimeMark time_mark() const { return time_mark_; }
   // The time-order policy's counts, or nullptr when it is off (option, or no column "t").
@@ -122,6 +126,17 @@ class Reader {
 
  private:
   void start_time_order(const ReaderOptions& options);
+  // Counts a skipped row at `position` for rows_skipped_before(): a run of skipped rows with
+  // no good row among them is one entry, so memory stays constant.
+  void note_skip(std::uint64_t position);
+  void settle_skips(bool at_end);
+  struct SkipRun {
+    std::uint64_t last = 0, count = 0;
+  };
+  std::vector<SkipRun> pending_skips_;  // after the row last returned, in position order
+  std::uint64_t skipped_before_ = 0;
+  std::uint64_t last_good_position_ = 0;  // the last row parsed and handed on
+  bool have_good_ = false;
   std::unique_ptr<TimeOrder> time_order_;
   TimeMark time_mark_ = TimeMark::none;
   std::uint64_t* rows_returned_ = nullptr;
