@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Sets everything up and runs every test in a normal build (GCC) with warnings as errors, then
-# the unit tests of the input-facing stages under AddressSanitizer and
-# UndefinedBehaviorSanitizer (clang; MOMENTUM_FULL_SANITIZE=1: every fast test), then the fuzz
-# targets (a fixed number of inputs with a fixed seed, so the verdict is reproducible).
+# every test that is not labelled slow under AddressSanitizer and UndefinedBehaviorSanitizer
+# (clang; MOMENTUM_FULL_SANITIZE=0: only the unit tests of the input-facing stages), then the
+# fuzz targets (a fixed number of inputs with a fixed seed, so the verdict is reproducible).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc)
@@ -16,16 +16,17 @@ ctest --test-dir build -j"$jobs" --output-on-failure
 phase "normal tests"
 
 # The sanitizer build uses clang: it compiles this code base's Eigen and Ceres templates about
-# twice as fast as GCC under instrumentation (properties_test.cpp: 36 s against 68 s), which
-# keeps CI well inside its budget, and it puts a second compiler's diagnostics on every change.
-# Warnings are errors here too. The tests labelled slow (whole simulated days, minutes each) ran
-# above. Under the sanitizers: the stages that parse what comes from outside (core, stream, cli,
-# can: text, numbers, CSV and binary streams, candump, DBC) and their unit tests. The whole
-# suite under the sanitizers (MOMENTUM_FULL_SANITIZE=1) builds the library a second time, which
-# no longer fits CI's 20 minutes on 2 cores; the fuzz targets below run the candump, DBC and
-# URDF parsers under them too. -O1 -g1, as the AddressSanitizer documentation suggests.
-if [[ ${MOMENTUM_FULL_SANITIZE:-0} == 1 ]]; then
-  sanitize_stages="core;stream;cli;can;friction;observer;detect;eval"
+# twice as fast as GCC under instrumentation (properties_test.cpp: 36 s against 68 s), and it
+# puts a second compiler's diagnostics on every change. Warnings are errors here too.
+# Under AddressSanitizer and UndefinedBehaviorSanitizer: every stage's unit tests and every test
+# that is not labelled slow, against the sanitized tools: the golden command-line cases (their
+# test runs build-sanitize/bin), the hostile-input test, the corruption test, the man pages.
+# The tests labelled slow (whole simulated days and campaigns, minutes each even unsanitized)
+# ran above in the normal build only. -O1 -g1, as the AddressSanitizer documentation suggests.
+# MOMENTUM_FULL_SANITIZE=0: only the stages that parse outside input and their unit tests, for
+# a quick local run.
+if [[ ${MOMENTUM_FULL_SANITIZE:-1} == 1 ]]; then
+  sanitize_stages="core;stream;cli;can;model;friction;observer;fit;detect;contact;sim;eval;dynfit"
   sanitize_targets=()
   sanitize_tests=(-LE slow)
 else

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (candump text, DBC, URDF to chain) with clang and runs each from
-# the captures and DBC files of tests/data/can, the URDFs of tests/data and tests/cli (each
-# prefixed with its "ROOT TIP" line), plus the inputs that once failed
+# Builds the libFuzzer targets (candump text, DBC, URDF to chain, CSV stream, binary stream,
+# robot profile) with clang and runs each from the captures and DBC files of tests/data/can, the
+# URDFs of tests/data and tests/cli (each prefixed with its "ROOT TIP" line), the CSV streams of
+# tests/data and tests/cli (and the same converted to binary, with a comment record), the
+# profiles of tests/data and tests/cli, plus the inputs that once failed
 # (tests/fuzz/regressions/<target>).
 #   tests/fuzz/run.sh [RUNS]      RUNS inputs per target (default 20000) with a fixed seed, so
 #                                 that CI is reproducible: the same tree gives the same verdict
@@ -35,10 +37,15 @@ common_sources=("$src"/lib/src/stream/*.cpp "$src"/lib/src/core/*.cpp)
 # URDF to chain needs these of model/; dynamics and the observer's stream code (two thirds of the
 # instrumented compile) it does not.
 model_sources=("$src"/lib/src/model/{model,collision,inertial_corrections,profile,profile_text}.cpp)
-targets=(candump dbc urdf)
+# The profile target reads the sections that the friction and detect stages own as well.
+section_sources=("$src"/lib/src/friction/friction.cpp "$src"/lib/src/detect/thresholds.cpp)
+# FUZZ_TARGETS="stream_csv profile" builds and runs only those.
+read -r -a targets <<< "${FUZZ_TARGETS:-candump dbc urdf stream_csv stream_binary profile}"
 sources_of() {
   case $1 in
     urdf) printf '%s\n' "$src/tests/fuzz/urdf_fuzz.cpp" "${model_sources[@]}" "${common_sources[@]}" ;;
+    profile) printf '%s\n' "$src/tests/fuzz/profile_fuzz.cpp" "${model_sources[@]}" "${section_sources[@]}" "${common_sources[@]}" ;;
+    stream_*) printf '%s\n' "$src/tests/fuzz/$1_fuzz.cpp" "${common_sources[@]}" ;;
     *) printf '%s\n' "$src/tests/fuzz/$1_fuzz.cpp" "$src"/lib/src/can/*.cpp "${common_sources[@]}" ;;
   esac
 }
@@ -56,7 +63,7 @@ for target in "${targets[@]}"; do
   objects=()
   while read -r source; do objects+=("$(object_of "$source")"); done < <(sources_of "$target")
   libs=()
-  [[ $target == urdf ]] && libs=(-lurdfdom_model -lconsole_bridge)
+  [[ $target == urdf || $target == profile ]] && libs=(-lurdfdom_model -lconsole_bridge)
   "$cxx" "${link_flags[@]}" "${objects[@]}" "${libs[@]}" -o "$work/fuzz_$target" ||
     { echo "fuzz: $target did not link" >&2; exit 1; }
 done
@@ -67,6 +74,52 @@ for target in "${targets[@]}"; do
     cp "$src"/tests/data/can/*.log "$src"/tests/data/can/formats/*.log "$src"/tests/data/can/formats/*.txt "$corpus"/
   elif [[ $target == dbc ]]; then
     cp "$src"/tests/data/can/*.dbc "$src"/tests/data/can/formats/*.dbc "$corpus"/
+  elif [[ $target == stream_csv || $target == stream_binary ]]; then
+    # The streams of the tests: the data sets' and the golden cases' CSV files and standard
+    # inputs, each cut to its first 4 KiB (the inputs' length limit below), as CSV; and as
+    # binary (mo-log(5)), converted here with a comment record after the first row.
+    python3 - "$src" "$corpus" "$target" <<'PY'
+import glob, hashlib, os, struct, sys
+src, corpus, target = sys.argv[1:4]
+files = sorted(glob.glob(src + "/tests/data/**/*.csv", recursive=True) +
+               glob.glob(src + "/tests/cli/*/*/*.csv") + glob.glob(src + "/tests/cli/*/*/stdin"))
+def binary(text):
+    lines = text.decode("utf-8", "replace").splitlines()
+    comments = [l[1:] for l in lines if l.startswith("#")]
+    body = [l for l in lines if l.strip() and not l.startswith("#")]
+    if not body:
+        return None
+    columns = [c.strip() for c in body[0].split(",")]
+    out = b"\x89MOLOG\r\n" + struct.pack("<III", 1, len(columns), len(comments[:2]))
+    for s in comments[:2] + columns:
+        b = s.encode()
+        out += struct.pack("<I", len(b)) + b
+    for n, row in enumerate(body[1:]):
+        try:
+            values = [float(v) for v in row.split(",")]
+        except ValueError:
+            continue
+        if len(values) != len(columns):
+            continue
+        out += struct.pack("<%dd" % len(values), *values)
+        if n == 0:
+            note = b"fuzz seed comment"
+            out += struct.pack("<QQ", 0x7ff84d4f434d4e54, len(note)) + note + b"\0" * (-len(note) % 8)
+    return out
+for path in files:
+    data = open(path, "rb").read()
+    if target == "stream_binary":
+        data = binary(data[:65536])
+        if data is None:
+            continue
+    data = data[:4096]
+    if data:
+        open(os.path.join(corpus, hashlib.sha1(data).hexdigest()), "wb").write(data)
+PY
+  elif [[ $target == profile ]]; then
+    for profile in "$src"/tests/data/*.json "$src"/tests/data/*/profile.json "$src"/tests/cli/*/*/*.json; do
+      head -c 4096 "$profile" > "$corpus/$(echo "$profile" | md5sum | cut -c1-16).json"
+    done
   else
     # Each URDF with the chain its profile names (root and tip from the profile next to it).
     for profile in "$src"/tests/data/*.json "$src"/tests/cli/mo-model/urdf-*/profile.json; do

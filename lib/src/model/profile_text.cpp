@@ -30,6 +30,9 @@ class Scanner {
   explicit Scanner(const std::string& text) : text_(text) {}
 
   Node document() {
+    // A UTF-8 byte order mark, as some editors save a file: load_profile's parser skips it too,
+    // and the edit keeps it in front of the document.
+    if (text_.compare(0, 3, "\xEF\xBB\xBF") == 0) pos_ = 3;
     skip_blank();
     Node root = value();
     skip_blank();

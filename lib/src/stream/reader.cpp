@@ -553,7 +553,18 @@ class BinaryReader final : public InputReader {
   const double* read_row() override {
     for (;;) {
       raw_position_ = in_->offset();
-      if (!in_->want(record_)) {
+      const bool whole_record = in_->want(record_);
+      // A comment record can be shorter than a row record: at the end of a stream, look at
+      // its marker before calling what is left a truncated row.
+      if (in_->available() >= sizeof(std::uint64_t)) {
+        std::uint64_t first;
+        std::memcpy(&first, in_->data(), sizeof first);
+        if (first == kCommentRecordBits) {
+          if (!read_comment_record()) return nullptr;
+          continue;
+        }
+      }
+      if (!whole_record) {
         if (in_->available() == 0) return nullptr;
         std::size_t partial = in_->available();
         in_->consume(partial);
