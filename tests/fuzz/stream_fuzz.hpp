@@ -136,11 +136,9 @@ inline void write_stream(const Stream& stream, const std::string& path, Encoding
   writer->close();
 }
 
-// PENDING (issue 26, "gnuplot/CSV injection", fixed on another branch): stream::Writer writes
-// comments and column names into CSV unchecked, so a comment holding a line break becomes a
-// data row and a column name holding a comma or a line break permutes the header. Until that
-// fix is merged the CSV round trip is checked only for streams whose text CSV can carry as it
-// is; the coordinator removes this guard (and the writer then escapes or refuses the rest).
+// The CSV round trip is exact only for text CSV can carry as it is: the writer splits a comment
+// with a line break into one '#' line per line, quotes a name with a separator and refuses one
+// with a control character (mo-log(5)), so the comparison below skips streams that hold either.
 inline bool csv_can_carry(const Stream& s) {
   auto plain = [](std::string_view text, bool is_name) {
     for (char c : text)

@@ -12,6 +12,7 @@
 #include "momentum/core/text.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
+#include "momentum/stream/format.hpp"
 
 namespace momentum::detect {
 
@@ -131,7 +132,8 @@ EventWriter::EventWriter(const std::string& path, std::size_t joints, const std:
                          bool contact)
     : out_(path), joints_(joints), contact_(contact) {
   std::string head;
-  for (const auto& c : comments) head += "#" + c + "\n";
+  // A comment with a line break must not become an event row (issue 26).
+  for (const auto& c : comments) head += stream::csv_comment_lines(c);
   head += event_header(joints, contact) + "\n";
   out_.write(head);
 }

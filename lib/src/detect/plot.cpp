@@ -46,12 +46,12 @@ std::string plot_format(const std::string& output, const std::string& format) {
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (is_known(extension)) {
     if (!format.empty() && format != extension)
-      throw Error("'" + core::printable(output) + "' names a " + extension + " file but --format is " + format);
+      throw Error("'" + core::printable(output, 4096) + "' names a " + extension + " file but --format is " + format);
     return extension;
   }
   if (!format.empty()) return format;
   if (extension.empty()) return "png";
-  throw Error("cannot tell the image format of '" + core::printable(output) +
+  throw Error("cannot tell the image format of '" + core::printable(output, 4096) +
               "': name it .png, .svg or .pdf, or give --format");
 }
 
