@@ -52,9 +52,6 @@ PENDING = {
 # Failures found by this test that are not in issue 26's list, reported to the coordinator and
 # not fixed here (each outside this branch's files): run and reported as skipped like PENDING.
 NEW_FINDINGS = {
-    # run.cpp: total_steps = llround(duration * internal rate): no bound on the duration; 1e20 s
-    # runs until killed (and overflows the step count), where an absurd value should be refused.
-    ("mo-sim", "resource/--duration=99999999999999999999"): "mo-sim duration unbounded",
     # A calibration or a fit over a log whose second half is NaN, or whose clock steps back,
     # says nothing: it silently uses half the data, or runs its state across the step.
     ("mo-calibrate", "blind/nan-span"): "mo-calibrate silent on NaN span",

@@ -49,6 +49,11 @@ bool parse_trajectory(const std::string& name, TrajectoryKind* kind) {
 bool TrajectoryOptions::IsValid(std::string* why) const {
   auto positive = [](double x) { return std::isfinite(x) && x > 0; };
   if (!positive(duration)) return fail(why, "duration must be a positive number of seconds");
+  // A bound keeps the step count (duration x internal rate) far inside a 64-bit integer: 1e20 s
+  // overflowed it and ran until killed (issue 26's hostile test).
+  if (duration > kMaxTrajectoryDuration)
+    return fail(why, "duration " + short_number(duration) + " s is longer than the " +
+                         short_number(kMaxTrajectoryDuration) + " s (116 days) one run simulates");
   if (kind == TrajectoryKind::paper || kind == TrajectoryKind::multisine || kind == TrajectoryKind::excite) {
     if (!positive(blend)) return fail(why, "blend must be a positive number of seconds");
     if (2 * blend > duration)

@@ -34,6 +34,9 @@
 
 namespace momentum::sim {
 
+// The longest trajectory one run simulates, s (116 days; longer is refused by IsValid).
+inline constexpr double kMaxTrajectoryDuration = 1e7;
+
 enum class TrajectoryKind { paper, multisine, excite, ptp, hold };
 
 // "paper", "multisine", "excite", "ptp", "hold".
