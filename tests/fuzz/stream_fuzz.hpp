@@ -141,8 +141,11 @@ inline void write_stream(const Stream& stream, const std::string& path, Encoding
 // with a control character (mo-log(5)), so the comparison below skips streams that hold either.
 inline bool csv_can_carry(const Stream& s) {
   auto plain = [](std::string_view text, bool is_name) {
-    for (char c : text)
+    for (char c : text) {
       if (c == '\n' || c == '\r' || c == '\0' || (is_name && c == ',')) return false;
+      // The CSV writer refuses a name with a control character (mo-log(5)).
+      if (is_name && (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)) return false;
+    }
     if (is_name) {
       if (text.empty() || text.front() == '#' || text.front() == ' ' || text.front() == '\t' ||
           text.back() == ' ' || text.back() == '\t' || text.starts_with("\xEF\xBB\xBF"))
