@@ -98,7 +98,8 @@ int main(int argc, char** argv) {
     if (mixed) sim::apply_mixed_campaign([&](const char* option) { return app.count(option) > 0; }, &run.contacts, &ranges);
     if (!ranges.parse(&run.contacts, &why)) throw cli::UsageError(why);
     for (double link : cli::parse_number_list(links, "--links")) {
-      if (link != std::floor(link)) throw cli::UsageError("--links: '" + core::short_number(link) + "' is not a link number");
+      // Out of int's range the conversion below is undefined (UBSan, the hostile test).
+      if (link != std::floor(link) || std::fabs(link) > 1e6) throw cli::UsageError("--links: '" + core::short_number(link) + "' is not a link number");
       run.contacts.links.push_back(static_cast<int>(link));
     }
 

@@ -155,7 +155,8 @@ std::vector<int> parse_joints(const std::string& text, const std::string& option
   std::vector<int> joints;
   for (const auto& j : core::split(text)) {
     const double v = parse_option_number(j, option);
-    if (v < 1 || v != std::floor(v)) throw OptionError(option + ": '" + j + "' is not a joint number");
+    // Out of int's range the conversion below is undefined (UBSan, the hostile test).
+    if (v < 1 || v > 1e6 || v != std::floor(v)) throw OptionError(option + ": '" + j + "' is not a joint number");
     joints.push_back(static_cast<int>(v));
   }
   return joints;
