@@ -358,27 +358,25 @@ void Calibrator::begin_part(const std::string& name) {
 
 void Calibrator::begin_stretch(const std::string& name) {
   begin_part(name);
+  begin_joint_streams();
+  for (auto& J : joints_) J.tracker.restart();
+  t_prev_ = kNaN;
+}
+
+void Calibrator::begin_joint_streams() {
   for (auto& J : joints_) {
     J.moving.begin_stream();
     J.slow.begin_stream();
     for (auto& r : J.rest) r.begin_stream();
     J.rest_absolute.begin_stream();
     J.was_rest = false;
-    J.tracker.restart();
   }
-  t_prev_ = kNaN;
 }
 
 void Calibrator::begin_stream(const std::string& name, bool have_velocity) {
   begin_part(name);
   streams_.push_back(name);
-  for (auto& J : joints_) {
-    J.moving.begin_stream();
-    J.slow.begin_stream();
-    for (auto& r : J.rest) r.begin_stream();
-    J.rest_absolute.begin_stream();
-    J.was_rest = false;
-  }
+  begin_joint_streams();
   have_velocity_ = have_velocity_ && have_velocity;
   t_prev_ = kNaN;
   t_start_ = kNaN;

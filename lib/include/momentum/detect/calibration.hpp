@@ -431,6 +431,8 @@ class Calibrator {
     std::vector<JointTails> joints;
   };
   void begin_part(const std::string& name);
+  // Every joint's peak tails and rest state start afresh (a new log or stretch).
+  void begin_joint_streams();
   OutOfSample check_out_of_sample() const;
   Signal signal_;
   CalibrationOptions options_;
