@@ -18,7 +18,7 @@ namespace {
 const Database& database() {
   static const Database db = Database::parse(
       "BO_ 385 A: 8 X\n SG_ q1 : 0|32@1- (1E-006,0) [0|0] \"\" X\n SG_ dq1 : 39|32@0- (1E-005,0) [0|0] \"\" X\n"
-      "BO_ 2147485568 F: 64 X\n SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" X\n SG_ W m1 : 4|64@1- (1,0) [0|0] \"\" X\n"
+      "BO_ 2147485568 F: 64 X\n SG_ Sel M : 0|8@1+ (1,0) [0|0] \"\" X\n SG_ W m1 : 8|64@1- (1,0) [0|0] \"\" X\n"
       " SG_ V m2 : 500|12@0+ (0.5,3) [0|0] \"\" X\n SG_ G m3 : 64|64@1- (1,0) [0|0] \"\" X\n"
       "SIG_VALTYPE_ 2147485568 G : 2;\n",
       "fuzz.dbc");
