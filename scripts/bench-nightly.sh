@@ -156,7 +156,8 @@ step "6. mo-detect on the check part, ${#check[@]} h" -P < "$work/night/commands
 events=$(cat "$work"/night/new-*.events.csv 2>/dev/null | grep -c ',onset,' || true)
 report=$work/night/calibration.txt
 [[ -s $work/night/calibration-accepting.txt ]] && report=$work/night/calibration-accepting.txt
-rate=$(awk '$1 == "#" && $2 == "mu" && $3 == "false" && $5 == "expected:" { print $6 }' "$report")
+rate=$(awk '$1 == "#" && $2 == "mu" && $3 == "false" && $5 == "stated:" {
+    r = $6; for (k = 6; k < NF; ++k) if ($k == "aim" && $(k + 1) == "at") r = $(k + 2); print r }' "$report")
 
 printf '%-44s wall %7.2f s  cpu %7.2f s  peak %6.1f MB\n' "the night" "$total_wall" "$total_cpu" "$(echo "$peak / 1024" | bc -l)"
 old_events=$(cat "$work"/night/old-*.events.csv 2>/dev/null | grep -c ',onset,' || true)

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "momentum/core/number.hpp"
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/detector.hpp"
 #include "momentum/stream/error.hpp"
@@ -622,6 +623,28 @@ TEST(Calibrator, PromiseCheckedOutOfSampleHoldsOnFreshDataAndGlitchesAreLeftOut)
   EXPECT_LT(basis.tail.supported_per_hour, per_hour);
   EXPECT_LE(basis.per_hour, per_hour * (1 + 1e-9));
   EXPECT_EQ(basis.vouched_per_hour, std::max(basis.per_hour, basis.tail.supported_per_hour));
+  // The report states the vouched rate; an hour of data backs the rate aimed at, a minute does
+  // not, and the report says by how much instead of stating the aim.
+  EXPECT_NE(format_calibration_report(truth).find("false alarms stated: " + momentum::core::significant(truth.vouched_false_alarms_per_hour(), 3) +
+                                                  " per hour of logs like these (every joint and state at its rate and share of the time; the data vouch for it)"),
+            std::string::npos)
+      << format_calibration_report(truth);
+  {
+    Calibrator minute(Signal::mu, 1, o);
+    minute.begin_stream("minute", false);
+    for (long k = 0; k < static_cast<long>(60 / dt); ++k) {
+      const double x = next();
+      minute.add(k * dt, &x, nullptr, [] { return std::string("minute"); });
+    }
+    const auto thin = minute.result();
+    const double stated = thin.vouched_false_alarms_per_hour(), aimed = thin.expected_false_alarms_per_hour();
+    EXPECT_GT(stated, 10 * aimed);
+    EXPECT_NE(format_calibration_report(thin).find("false alarms stated: " + momentum::core::significant(stated, 3) +
+                                                   " per hour of logs like these (every joint and state at the rarest rate its data vouch for); the thresholds aim at " +
+                                                   momentum::core::significant(aimed, 3) + " per hour"),
+              std::string::npos)
+        << format_calibration_report(thin);
+  }
   // Out of sample: each log left out in turn. The clean data's crossings agree with what the
   // left-out calibrations state (about 0.5 in the hour: Poisson); with the glitches, the three
   // glitches (in the logs left out) cross too.

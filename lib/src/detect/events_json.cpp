@@ -119,6 +119,7 @@ std::string calibration_json_lines(const CalibrationResult& result, const nlohma
                                   {"streams", result.streams},
                                   {"profile", profile},
                                   {"thresholds", thresholds_to_json(result.thresholds)},
+                                  {"false_alarms_stated_per_hour", model::json_number(result.vouched_false_alarms_per_hour())},
                                   {"false_alarms_expected_per_hour", model::json_number(result.expected_false_alarms_per_hour())},
                                   {"false_alarms_vouched_per_hour", model::json_number(result.vouched_false_alarms_per_hour())},
                                   {"out_of_sample", out_of_sample_json(result.out_of_sample)}};

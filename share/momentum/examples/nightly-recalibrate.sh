@@ -264,11 +264,13 @@ def promise(p):
         if "rule" not in d:  # not a threshold calibration (--classes)
             continue
         when = entry.get("time") or "an unknown time"
+        # Held to the rate its thresholds aim at, as the candidate is (see the candidate's rate
+        # below), not to the looser rate the calibration's data vouch for.
         stated = d.get("false_alarms_expected_per_hour")
         if isinstance(stated, dict):
             stated = stated.get(sig)
         if isinstance(stated, (int, float)) and stated >= 0:
-            return stated, f"stated by mo-calibrate on {when}"
+            return stated, f"aimed at by mo-calibrate on {when}"
         asked = d.get("false_alarms_per_hour")
         if d["rule"] == "rate" and isinstance(asked, (int, float)) and asked > 0 and joints:
             return asked * joints, f"{asked:g} an hour asked of each of its {joints} joints by mo-calibrate on {when}"
@@ -618,8 +620,12 @@ if [[ $new_events == none ]]; then
   to_log < "$work/detect.err"
   keep_old "the candidate cannot run the detector (see above)"
 fi
-# The candidate's stated rate for the signal mo-detect judges (mu when calibrated, else r).
-rate=$(awk '$1 == "#" && $3 == "false" && $4 == "alarms" && $5 == "expected:" { r[$2] = $6 }
+# The rate the candidate's thresholds aim at for the signal mo-detect judges (mu when
+# calibrated, else r): the night holds both profiles to their aim, which errs towards refusing
+# and alarming when the day's data are too short to vouch for it (the report's "stated" rate is
+# then higher, and says so).
+rate=$(awk '$1 == "#" && $3 == "false" && $4 == "alarms" && $5 == "stated:" {
+    r[$2] = $6; for (k = 6; k < NF; ++k) if ($k == "aim" && $(k + 1) == "at") r[$2] = $(k + 2) }
   END { print ("mu" in r) ? r["mu"] : ("r" in r) ? r["r"] : "" }' "$work/calibration.txt")
 [[ -n $rate ]] || keep_old "the calibration states no false-alarm rate (see above)"
 expected_events=$(awk -v r="$rate" -v h="$check_hours" 'BEGIN { printf "%.4g", r * h }')

@@ -333,7 +333,9 @@ struct CalibrationResult {
   // when no joint has rows.
   double expected_false_alarms_per_hour() const;
   // The same with every state at the rate its data vouch for (ThresholdBasis::vouched_per_hour):
-  // what the thresholds can be held to where the data are too short for the rate asked.
+  // what the thresholds can be held to where the data are too short for the rate asked. This
+  // is the rate the report and the profile state ("false alarms stated"), never rarer than
+  // expected_false_alarms_per_hour().
   double vouched_false_alarms_per_hour() const;
 };
 

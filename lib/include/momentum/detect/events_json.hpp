@@ -33,7 +33,8 @@ nlohmann::json event_json(const Event& event, const std::string& source, const n
 // (independent peaks), "left_out" (outliers), "fa_per_h" (the fitted tail's rate over the threshold),
 // "vouched_fa_per_h" (ThresholdBasis::vouched_per_hour), "data_vouch_for_per_h" (the rarest
 // rate the data vouch for)}) then one summary ({"type": "thresholds", "signal", "rows",
-// "streams", "profile", "thresholds", "false_alarms_expected_per_hour",
+// "streams", "profile", "thresholds", "false_alarms_stated_per_hour" (the vouched rate: what
+// the thresholds are held to), "false_alarms_expected_per_hour" (the rates aimed at),
 // "false_alarms_vouched_per_hour", "out_of_sample": out_of_sample_json}). Numbers that are
 // NaN are written null. Each line ends with '\n'.
 std::string calibration_json_lines(const CalibrationResult& result, const nlohmann::json& profile);
