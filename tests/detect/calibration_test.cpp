@@ -672,3 +672,52 @@ TEST(Calibrator, PromiseCheckedOutOfSampleHoldsOnFreshDataAndGlitchesAreLeftOut)
   EXPECT_GT(seen, basis.per_hour / factor) << over << " in " << hours << " h";
   EXPECT_LT(seen, basis.per_hour * factor) << over << " in " << hours << " h";
 }
+
+TEST(Calibrator, AnOutlierSeenByTwoJointsAtOnceIsLeftOutOnBoth) {
+  // Simulated truth: two joints of independent residual noise (an exponential tail, as in the
+  // test above), two minutes at 100 Hz, and on joint 1 one glitch far beyond its tail (left out
+  // at the strict level). On joint 2 a spike of a scanned size, either at the glitch's time (an
+  // abrupt stop seen by both joints) or 30 s away from it. The same spike is left out at least
+  // as often beside the glitch as alone, there is a size left out only beside it (the level
+  // goes from outlier_probability to corroborated_probability), and then joint 2's threshold is
+  // the one it has without any spike.
+  const double dt = 0.01;
+  CalibrationOptions o;
+  o.false_alarms_per_hour = 0.5;
+  o.rest_state = false;
+  o.margin_nm = 0;
+  auto calibrate = [&](double spike, long spike_row) {
+    std::mt19937_64 rng(5);
+    std::normal_distribution<double> noise(0, 1);
+    double s1 = 0, s2 = 0;
+    Calibrator c(Signal::mu, 2, o);
+    c.begin_stream("log", false);
+    for (long k = 0; k < static_cast<long>(120 / dt); ++k) {
+      s1 += (dt / 0.05) * (noise(rng) - s1);
+      s2 += (dt / 0.05) * (noise(rng) - s2);
+      const double x[2] = {3 * s1 * s1 + (k == 6000 ? 60.0 : 0.0), 3 * s2 * s2 + (k == spike_row ? spike : 0.0)};
+      c.add(k * dt, x, nullptr, [k] { return "log:" + std::to_string(k + 2); });
+    }
+    return c.result();
+  };
+  const auto clean = calibrate(0, -1);
+  ASSERT_EQ(clean.joints[0].moving_basis.tail.outliers.size(), 1u);
+  const double largest = clean.joints[1].moving_basis.tail.largest_kept;
+  bool only_beside = false;
+  int left_out_beside = 0, left_out_alone = 0;
+  for (double factor = 1.2; factor < 6; factor *= 1.1) {
+    const auto beside = calibrate(factor * largest, 6000), alone = calibrate(factor * largest, 9000);
+    const bool out_beside = !beside.joints[1].moving_basis.tail.outliers.empty();
+    const bool out_alone = !alone.joints[1].moving_basis.tail.outliers.empty();
+    left_out_beside += out_beside;
+    left_out_alone += out_alone;
+    if (out_beside && !out_alone) {
+      only_beside = true;
+      EXPECT_TRUE(beside.joints[1].moving_basis.tail.corroborated.at(0));
+      EXPECT_NEAR(beside.thresholds.joints[1].moving, clean.thresholds.joints[1].moving, 1e-9);
+      EXPECT_GT(alone.thresholds.joints[1].moving, clean.thresholds.joints[1].moving);
+    }
+  }
+  EXPECT_TRUE(only_beside);
+  EXPECT_GT(left_out_beside, left_out_alone);
+}

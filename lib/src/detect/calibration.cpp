@@ -1,8 +1,11 @@
 #include "momentum/detect/calibration.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
+#include <string_view>
 
 #include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
@@ -413,6 +416,18 @@ CalibrationResult Calibrator::result() const {
     const bool above_quantile = s.seconds >= 1000 && s.max > options_.contact_ratio * s.p999;
     return s.samples >= 1000 && (above_peaks || above_quantile);
   };
+  std::vector<JointTails> all_tails;
+  for (const auto& J : joints_) {
+    JointTails& tails = all_tails.emplace_back(options_.peak_window, J.rest.size());
+    tails.moving = J.moving.tail();
+    tails.slow = J.slow.tail();
+    tails.rest_absolute = J.rest_absolute.tail();
+    for (std::size_t d = 0; d < J.rest.size(); ++d) tails.rest[d] = J.rest[d].tail();
+    tails.moving_rows = J.moving.samples();
+    tails.slow_rows = J.slow.samples();
+    tails.rest_rows = J.rest.front().samples();
+  }
+  const std::vector<JointDecision> decisions = decide_joints(all_tails);
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const auto& J = joints_[j];
     const std::string name = sig + std::to_string(j + 1);
@@ -423,15 +438,7 @@ CalibrationResult Calibrator::result() const {
     c.rest = J.rest.front().summary();
     c.rest_absolute = J.rest_absolute.summary();
     if (c.moving.samples + c.slow.samples + c.rest.samples == 0) throw Error(name + ": no finite sample to calibrate on");
-    JointTails tails(options_.peak_window, J.rest.size());
-    tails.moving = J.moving.tail();
-    tails.slow = J.slow.tail();
-    tails.rest_absolute = J.rest_absolute.tail();
-    for (std::size_t d = 0; d < J.rest.size(); ++d) tails.rest[d] = J.rest[d].tail();
-    tails.moving_rows = J.moving.samples();
-    tails.slow_rows = J.slow.samples();
-    tails.rest_rows = J.rest.front().samples();
-    const JointDecision decision = decide_joint(tails);
+    const JointDecision& decision = decisions[j];
     JointThreshold T = decision.threshold;
     c.moving_basis = decision.moving_basis;
     c.slow_basis = decision.slow_basis;
@@ -492,12 +499,17 @@ CalibrationResult Calibrator::result() const {
     }
     auto warn_contact = [&](const char* state, const MagnitudeSummary& s, const ThresholdBasis& basis) {
       if (options_.rule == ThresholdRule::rate && basis.tail.ok) {
-        for (const auto& o : basis.tail.outliers)
-          out.warnings.push_back(name + " " + state + ": " + core::significant(o.m, 6) + " Nm at " + o.where + " (t=" + core::significant(o.t, 6) +
-                                 " s) is an outlier, left out of the threshold: the tail of the " +
-                                 std::to_string(basis.tail.tail.peaks) + " largest other peaks reaches it with " +
-                                 "probability under " + core::significant(options_.tail.outlier_probability, 3) +
-                                 " (a glitch, an abrupt stop, or a contact?)");
+        for (std::size_t k = 0; k < basis.tail.outliers.size(); ++k) {
+          const TailPeak& o = basis.tail.outliers[k];
+          const bool seen_elsewhere = k < basis.tail.corroborated.size() && basis.tail.corroborated[k];
+          out.warnings.push_back(
+              name + " " + state + ": " + core::significant(o.m, 6) + " Nm at " + o.where + " (t=" + core::significant(o.t, 6) +
+              " s) is an outlier, left out of the threshold: the tail of the " + std::to_string(basis.tail.tail.peaks) +
+              " largest other peaks reaches it with probability under " +
+              core::significant(seen_elsewhere ? options_.tail.corroborated_probability : options_.tail.outlier_probability, 3) +
+              (seen_elsewhere ? ", at the time another joint's peak was left out (an abrupt stop or a glitch that several joints saw?)"
+                              : " (a glitch, an abrupt stop, or a contact?)"));
+        }
         return;
       }
       out.warnings.push_back(name + " " + state + ": max " + core::significant(s.max, 6) + " Nm at " + s.where_max + " (t=" +
@@ -519,7 +531,42 @@ CalibrationResult Calibrator::result() const {
   return out;
 }
 
-JointDecision Calibrator::decide_joint(const JointTails& tails) const {
+namespace {
+// The stream part of a peak's location (`file:line`, or `file: byte N` for binary streams).
+std::string_view stream_of(std::string_view where) {
+  if (const auto byte = where.rfind(": byte "); byte != std::string_view::npos) return where.substr(0, byte);
+  const auto colon = where.rfind(':');
+  return colon == std::string_view::npos ? where : where.substr(0, colon);
+}
+}  // namespace
+
+std::vector<JointDecision> Calibrator::decide_joints(const std::vector<JointTails>& tails) const {
+  std::vector<JointDecision> decisions;
+  for (const auto& t : tails) decisions.push_back(decide_joint(t));
+  std::vector<std::vector<TailPeak>> left_out(tails.size());
+  bool any = false;
+  for (std::size_t j = 0; j < decisions.size(); ++j)
+    for (const ThresholdBasis* b : {&decisions[j].moving_basis, &decisions[j].slow_basis, &decisions[j].rest_basis})
+      for (const TailPeak& o : b->tail.outliers) {
+        left_out[j].push_back(o);
+        any = true;
+      }
+  if (!any || options_.rule != ThresholdRule::rate) return decisions;
+  for (std::size_t j = 0; j < tails.size(); ++j) {
+    auto seen_elsewhere = [&](const TailPeak& p) {
+      for (std::size_t k = 0; k < left_out.size(); ++k)
+        if (k != j)
+          for (const TailPeak& o : left_out[k])
+            if (std::fabs(o.t - p.t) <= options_.peak_window && stream_of(o.where) == stream_of(p.where)) return true;
+      return false;
+    };
+    decisions[j] = decide_joint(tails[j], seen_elsewhere);
+  }
+  return decisions;
+}
+
+JointDecision Calibrator::decide_joint(const JointTails& tails,
+                                       const std::function<bool(const TailPeak&)>& corroborated) const {
   JointDecision out;
   JointThreshold& T = out.threshold;
   auto with_margin = [&](double x) {
@@ -528,7 +575,7 @@ JointDecision Calibrator::decide_joint(const JointTails& tails) const {
   // The threshold of one state from its peaks, and how it was decided.
   auto decide = [&](const TailSampler& sampler, ThresholdBasis* basis) {
     const std::vector<TailPeak> largest = sampler.largest();
-    basis->tail = fit_tail(largest, sampler.peaks(), sampler.seconds(), options_.tail);
+    basis->tail = fit_tail(largest, sampler.peaks(), sampler.seconds(), options_.tail, corroborated);
     double threshold = with_margin(largest.empty() ? 0.0 : largest.front().m);
     if (options_.rule == ThresholdRule::rate && basis->tail.ok) {
       const double floor = with_margin(basis->tail.largest_kept);
@@ -625,13 +672,17 @@ OutOfSample Calibrator::check_out_of_sample() const {
     return std::isfinite(basis.vouched_per_hour) ? basis.vouched_per_hour : options_.false_alarms_per_hour;
   };
   for (const std::size_t i : parts) {
+    std::vector<JointTails> others;
+    for (std::size_t j = 0; j < joints_.size(); ++j) {
+      JointTails& merged = others.emplace_back(options_.peak_window, options_.rest_drift_candidates.size());
+      for (const std::size_t k : parts)
+        if (k != i) merged.merge(parts_[k].joints[j]);
+    }
+    const std::vector<JointDecision> decisions = decide_joints(others);
     for (std::size_t j = 0; j < joints_.size(); ++j) {
       const JointTails& held = parts_[i].joints[j];
-      JointTails others(options_.peak_window, options_.rest_drift_candidates.size());
-      for (const std::size_t k : parts)
-        if (k != i) others.merge(parts_[k].joints[j]);
-      if (others.moving_rows + others.slow_rows + others.rest_rows == 0) continue;
-      const JointDecision d = decide_joint(others);
+      if (others[j].moving_rows + others[j].slow_rows + others[j].rest_rows == 0) continue;
+      const JointDecision& d = decisions[j];
       const JointThreshold& T = d.threshold;
       // Each state's rows judged by the rule the detector applies to them.
       struct Rule {

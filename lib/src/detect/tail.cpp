@@ -128,6 +128,8 @@ bool TailFitOptions::IsValid(std::string* why) const {
   };
   if (!(xi_min <= xi_max && xi_min > -1 && xi_max < 1)) return bad("tail shape bounds must satisfy -1 < min <= max < 1");
   if (!(outlier_probability > 0 && outlier_probability < 1)) return bad("outlier probability must be in (0, 1)");
+  if (!(corroborated_probability > 0 && corroborated_probability < 1))
+    return bad("corroborated outlier probability must be in (0, 1)");
   if (max_outliers < 0) return bad("max outliers must be >= 0");
   if (min_peaks < 2) return bad("a tail fit needs at least 2 peaks over its base level");
   if (min_shape_peaks < min_peaks) return bad("the shape needs at least as many peaks as the fit");
@@ -136,7 +138,7 @@ bool TailFitOptions::IsValid(std::string* why) const {
 }
 
 TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks, double seconds,
-                 const TailFitOptions& options) {
+                 const TailFitOptions& options, const std::function<bool(const TailPeak&)>& corroborated) {
   std::string why;
   if (!options.IsValid(&why)) throw Error(why);
   TailFit fit;
@@ -197,9 +199,11 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
     const double shape = std::max(below.xi, 1.0 / below.peaks);
     const double survival = pareto_survival(peaks[i - 1].m - below.u0, below.sigma, shape);
     const double any = -std::expm1(static_cast<double>(below.peaks) * std::log1p(-std::min(survival, 1.0)));
-    if (any < options.outlier_probability) removed = i;
+    const bool seen_elsewhere = corroborated && corroborated(peaks[i - 1]);
+    if (any < (seen_elsewhere ? options.corroborated_probability : options.outlier_probability)) removed = i;
   }
   fit.outliers.assign(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(removed));
+  for (const TailPeak& o : fit.outliers) fit.corroborated.push_back(corroborated && corroborated(o));
   peaks.erase(peaks.begin(), peaks.begin() + static_cast<std::ptrdiff_t>(removed));
   total -= removed;
   fit.largest_kept = peaks.front().m;

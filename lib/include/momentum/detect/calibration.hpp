@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -415,7 +416,15 @@ class Calibrator {
 
   // One joint's thresholds from its tails, by the rules result() applies (the threshold rule,
   // the margin, the rest statistic and drift time, the fallback of states with too few rows).
-  JointDecision decide_joint(const JointTails& tails) const;
+  // `corroborated` (may be empty): the peaks judged as outliers at the tail options'
+  // corroborated_probability (see decide_joints).
+  JointDecision decide_joint(const JointTails& tails,
+                             const std::function<bool(const TailPeak&)>& corroborated = {}) const;
+  // Every joint's decision (tails[j] for joint j), with outliers corroborated across joints: a
+  // peak within peak_window of a peak left out on another joint, in the same stream, is judged
+  // at the corroborated level. One round: the joints are decided alone, then again with the
+  // outliers the first round left out.
+  std::vector<JointDecision> decide_joints(const std::vector<JointTails>& tails) const;
 
  private:
   struct Joint {

@@ -14,6 +14,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -123,6 +124,11 @@ struct TailFitOptions {
   // few dozen peaks judge (p = 0.0104 for an abrupt stop against 6 peaks on the UR10e), and
   // the tail then extrapolates it.
   double outlier_probability = 0.01;
+  // The level for a peak that fit_tail's caller calls corroborated: one at the time another
+  // joint's peak was left out as an outlier (an abrupt stop, a glitch seen by several joints).
+  // Two joints extreme at once is evidence of its own, so the procedure's usual level suffices
+  // there; elsewhere the stricter outlier_probability keeps the ordinary tail.
+  double corroborated_probability = 0.05;
   // At most this many outliers are removed (the largest first), and never more than a tenth of
   // the peaks.
   int max_outliers = 5;
@@ -147,6 +153,7 @@ struct TailFit {
   ParetoTail tail;          // when ok: exponential (xi = 0) unless options.fitted_shape
   double shape = NAN;       // the shape xi fitted to the same peaks (NaN: too few to estimate)
   std::vector<TailPeak> outliers;  // peaks removed as outliers, largest first
+  std::vector<bool> corroborated;  // per outlier: judged at the corroborated level
   double largest_kept = 0;  // the largest peak that is not an outlier (0 when none)
   double seconds = 0;       // exposure, s
   std::uint64_t peaks = 0;  // independent peaks found in the exposure (outliers included)
@@ -160,7 +167,10 @@ struct TailFit {
 // exposure, of which `largest` are the top ones, largest first. The base level is the
 // (k+1)-th largest peak with k = min(kept - 1, max(min_peaks, sqrt(total))), or total/5 for a
 // fitted shape; fewer than min_peaks + 1 peaks in all: no fit.
+// `corroborated` (may be empty): peaks judged at options.corroborated_probability instead of
+// options.outlier_probability.
 TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks, double seconds,
-                 const TailFitOptions& options = {});
+                 const TailFitOptions& options = {},
+                 const std::function<bool(const TailPeak&)>& corroborated = {});
 
 }  // namespace momentum::detect
