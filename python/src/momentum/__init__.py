@@ -246,8 +246,10 @@ def observe(profile: Union[Profile, PathLike], columns: Any, *, order: Optional[
     gap_factor, bridge_tolerance (rad), signal_check=False (--no-signal-check), signal_sigmas,
     limit_factor, flag_column, friction=False (--no-friction), friction_deadband (rad/s),
     friction_cutoff (Hz), lugre_update ("exact" or "semi-implicit"), restart_column, strict.
-    name: the input's name in messages. Raises momentum.Error for a stream that does not fit the
-    profile, ValueError for bad options."""
+    name: the input's name in messages. The result's `summary` holds the run's counts (rows
+    written, invalid, rejected and flagged rows, restarts, bridged gaps, the median time step).
+    Raises momentum.Error for a stream that does not fit the profile, ValueError for bad
+    options."""
     p = _profile(profile)
     a = _core.ObserveArguments()
     a.order = order
