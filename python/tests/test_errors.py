@@ -63,3 +63,23 @@ def test_bad_option_is_a_value_error(arm):
 def test_write_refuses_ragged_columns(tmp_path):
     with pytest.raises(ValueError, match="different lengths"):
         momentum.write(tmp_path / "x.csv", {"t": [0.0, 1.0], "q1": [1.0]})
+
+
+def test_observe_bad_row_strict_names_file_and_line(arm, tmp_path):
+    path = tmp_path / "log.csv"
+    header = "t,q1,q2,q3,dq1,dq2,dq3,i1,i2,i3\n"
+    rows = [f"{k * 0.002},0,0.7,1,0,0,0,0,0,0\n" for k in range(5)]
+    rows[3] = "0.006,0,0.7,1,0,0,0,0,zero,0\n"
+    path.write_text(header + "".join(rows))
+    with pytest.raises(momentum.Error) as e:
+        momentum.observe(arm, path, strict=True)
+    assert str(e.value).startswith(f"{path}:5: ")
+    # Without strict, the row is skipped with a warning and the others observed.
+    with pytest.warns(momentum.MomentumWarning, match=f"{path}:5: "):
+        observed = momentum.observe(arm, path)
+    assert observed.rows == 4
+
+
+def test_detect_without_thresholds_names_the_profile(arm, sim):
+    with pytest.raises(momentum.Error, match=str(arm)):
+        momentum.detect(arm, sim["free1_observed"])

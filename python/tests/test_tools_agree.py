@@ -139,3 +139,16 @@ def test_whole_pipeline_from_arrays(arm, sim):
     observed = momentum.observe(arm, momentum.read(sim["hits"]))
     events = momentum.detect(sim["calibrated"], observed)
     assert [e["t_detect"] for e in events] == [float(e["t_detect"]) for e in tool_events(sim["events"])]
+
+
+def test_calls_from_threads_agree(arm, sim):
+    """The binding releases the GIL and serialises the library's process-wide state: calls
+    from several threads give each the tool's numbers."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    log = momentum.read(sim["free1"])
+    expected = momentum.read(sim["free1_observed"])
+    with ThreadPoolExecutor(4) as pool:
+        results = list(pool.map(lambda _: momentum.observe(arm, log), range(4)))
+    for observed in results:
+        assert_same_columns(observed, expected)
