@@ -55,14 +55,17 @@ def test_observe_pandas_in_and_out(arm, sim):
         assert same_bits(observed[name].to_numpy(), expected[name]), name
 
 
-def test_calibrate_equals_mo_calibrate(arm, sim, tmp_path):
-    """The thresholds Python writes into the profile are mo-calibrate's, and so is the report."""
+def test_calibrate_equals_mo_calibrate(arm, sim, tmp_path, capfd):
+    """The thresholds Python writes into the profile are mo-calibrate's, and so is the report,
+    which comes back as text: nothing is written to the process's standard output."""
     profile = tmp_path / "arm.json"
     shutil.copy(arm, profile)
     shutil.copy(arm.parent / "paper-arm.urdf", tmp_path / "paper-arm.urdf")
     paths = [str(sim["free1_observed"]), str(sim["free2_observed"])]
     sets = [momentum.read(p) for p in paths]
+    capfd.readouterr()
     result = momentum.calibrate(profile, sets, names=paths)
+    assert capfd.readouterr().out == ""
     written = profile_document(profile)["thresholds"]
     expected = profile_document(sim["calibrated"])["thresholds"]
     assert written == expected
