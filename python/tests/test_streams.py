@@ -61,11 +61,16 @@ def test_reads_what_the_tools_write(sim):
 
 
 def test_written_by_python_reads_in_the_tools(tmp_path, sim):
-    """A stream momentum.write makes is one mo-cat reads: its --stats count the rows."""
+    """A stream momentum.write makes is one mo-cat reads: its --stats count the rows and
+    columns, and its CSV conversion holds the same numbers."""
     path = tmp_path / "p.bin"
-    momentum.write(path, {"t": np.arange(250) * 0.004, "q1": np.sin(np.arange(250))}, encoding="binary")
-    stats = run(tool("mo-cat"), "--stats", path).stdout
-    assert "250" in stats
+    q1 = np.sin(np.arange(250))
+    momentum.write(path, {"t": np.arange(250) * 0.004, "q1": q1}, encoding="binary")
+    stats = run(tool("mo-cat"), "--stats", path).stdout.splitlines()
+    assert stats[0].split() == ["rows", "250"] and stats[1].split() == ["columns", "2"]
+    text = run(tool("mo-cat"), path, "--output-format", "csv").stdout
+    rows = [l for l in text.splitlines() if not l.startswith("#")][1:]
+    assert [float(r.split(",")[1]) for r in rows] == q1.tolist()
 
 
 def test_pandas(tmp_path):
