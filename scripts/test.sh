@@ -15,6 +15,18 @@ phase "set-up and normal build"
 ctest --test-dir build -j"$jobs" --output-on-failure
 phase "normal tests"
 
+# The Python package (python/, README "Python"): pip installs it into a virtual environment
+# against the library this build has just compiled (cmake --install copies it to a scratch
+# prefix; nothing is compiled again but the binding), then its pytest suite compares it with
+# the tools of build/bin.
+rm -rf build/python-prefix
+cmake --install build --prefix build/python-prefix >/dev/null
+scripts/python-setup.sh build/python-venv
+MOMENTUM_PREFIX=$PWD/build/python-prefix build/python-venv/bin/pip install -q --disable-pip-version-check \
+  --no-build-isolation --config-settings=cmake.define.MOMENTUM_WERROR=ON ./python
+MOMENTUM_BIN=$PWD/build/bin build/python-venv/bin/python -m pytest -q -rs -p no:cacheprovider python/tests
+phase "python package"
+
 # The sanitizer build uses clang: it compiles this code base's Eigen and Ceres templates about
 # twice as fast as GCC under instrumentation (properties_test.cpp: 36 s against 68 s), and it
 # puts a second compiler's diagnostics on every change. Warnings are errors here too.

@@ -127,12 +127,18 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
       for (auto& rise : threshold_rises(*old, r.thresholds, options.max_rise)) rises.push_back(rise);
     if (options.format == ReportFormat::jsonl) {
       const std::string lines = calibration_json_lines(r, identity);
-      std::fwrite(lines.data(), 1, lines.size(), stdout);
+      if (options.report)
+        options.report(lines);
+      else
+        std::fwrite(lines.data(), 1, lines.size(), stdout);
     } else {
       std::string report = format_calibration_report(r);
       if (profile) report += format_threshold_changes(old ? &*old : nullptr, r.thresholds);
       // With -o - the profile goes to standard output, so the report goes to standard error.
-      std::fwrite(report.data(), 1, report.size(), options.output == "-" ? stderr : stdout);
+      if (options.report)
+        options.report(report);
+      else
+        std::fwrite(report.data(), 1, report.size(), options.output == "-" ? stderr : stdout);
     }
     for (const auto& w : r.warnings) warn(w);
     contact = contact || r.any_contact();

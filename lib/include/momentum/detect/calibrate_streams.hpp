@@ -55,6 +55,10 @@ struct CalibrateStreamsOptions {
   // Called with a progress line every 65536 rows of a stream, and with "" at the end of each
   // stream (the line is then cleared); null: none.
   std::function<void(const std::string& line)> progress;
+  // Receives the report (text or JSON Lines, one call per signal) instead of standard output
+  // (standard error with output "-"); null: those. For callers that are no command-line tool
+  // (the Python package), whose process's standard output is not theirs to write.
+  std::function<void(const std::string& text)> report;
 
   // False, with the reason in `why`, for invalid calibration options, max_rise neither 0 nor
   // finite and >= 1, or an output without a profile.
@@ -64,9 +68,10 @@ struct CalibrateStreamsOptions {
 // Fewer good rows than this cannot show a joint's usual band (a second at 100 Hz): refused.
 inline constexpr std::uint64_t kMinimumCalibrationRows = 100;
 
-// Calibrates on `inputs` (paths, "-": standard input) in order. The report goes to standard
-// output (to standard error when the profile goes to standard output), the calibration's
-// warnings and a clock step (the rows after it count as a new stream) through momentum::warn.
+// Calibrates on `inputs` (paths, "-": standard input) in order. The report goes to
+// options.report, else to standard output (to standard error when the profile goes to
+// standard output), the calibration's warnings and a clock step (the rows after it count as a
+// new stream) through momentum::warn.
 // Returns the results, one per signal. Throws momentum::Error when a stream cannot be read or
 // lacks t or the signals' columns, when the streams' joint counts differ from the first's or
 // from the profile's, when some streams have r and others not (rest_on_r), with fewer than
