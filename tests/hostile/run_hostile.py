@@ -52,13 +52,6 @@ PENDING = {
 # Failures found by this test that are not in issue 26's list, reported to the coordinator and
 # not fixed here (each outside this branch's files): run and reported as skipped like PENDING.
 NEW_FINDINGS = {
-    # A calibration or a fit over a log whose second half is NaN, or whose clock steps back,
-    # says nothing: it silently uses half the data, or runs its state across the step.
-    ("mo-calibrate", "blind/nan-span"): "mo-calibrate silent on NaN span",
-    ("mo-lugre-fit", "blind/nan-span"): "mo-lugre-fit silent on NaN span",
-    ("mo-lugre-fit", "blind/clock-step"): "mo-lugre-fit silent on clock step",
-    ("mo-dynfit", "blind/nan-span"): "mo-dynfit silent on NaN span",
-    ("mo-dynfit", "blind/clock-step"): "mo-dynfit silent on clock step",
 }
 
 # How to run each tool on a small input. {profile}, {log} (t, q, dq, i), {residual} (mo-observe

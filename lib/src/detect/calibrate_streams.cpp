@@ -9,6 +9,7 @@
 #include "momentum/model/json_number.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/stream/non_finite.hpp"
 
 namespace momentum::detect {
 
@@ -85,6 +86,7 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
     std::vector<double> x(joints), dq(joints), xr(joints);
     auto where = [&] { return in->where(); };
     double t_previous = NAN;
+    stream::NonFiniteRows non_finite;
     while (const double* row = in->next()) {
       if (in->time_mark() == stream::TimeMark::clock_step) {
         // The time line starts again: calibrate what follows as a stream of its own.
@@ -98,6 +100,10 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
       t_previous = row[it];
       for (std::size_t j = 0; j < idq.size(); ++j) dq[j] = row[idq[j]];
       for (std::size_t j = 0; j < ir.size(); ++j) xr[j] = row[ir[j]];
+      bool finite = std::isfinite(row[it]);
+      for (std::size_t s = 0; s < calibrators.size(); ++s)
+        for (std::size_t j = 0; j < joints; ++j) finite = finite && std::isfinite(row[columns[s][j]]);
+      if (!finite) non_finite.note(*in, row[it]);
       for (std::size_t s = 0; s < calibrators.size(); ++s) {
         for (std::size_t j = 0; j < joints; ++j) x[j] = row[columns[s][j]];
         const bool raw = signals[s] == Signal::mu && !ir.empty();
@@ -107,6 +113,7 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
         options.progress(in->name() + ": " + std::to_string(in->rows_read()) + " rows");
     }
     if (options.progress) options.progress("");
+    if (non_finite.count() > 0) warn(in->name() + ": " + non_finite.summary() + " for some of the joints calibrated");
   }
 
   std::vector<CalibrationResult> results;

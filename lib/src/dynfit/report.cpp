@@ -7,6 +7,7 @@
 #include "momentum/dynfit/regressor.hpp"
 #include "momentum/model/json_number.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/stream/non_finite.hpp"
 #include "momentum/stream/reader.hpp"
 
 namespace momentum::dynfit {
@@ -80,10 +81,12 @@ std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier&
   Eigen::VectorXd q(n), dq(n), tau(n);
   double t_last = -std::numeric_limits<double>::infinity();
   std::uint64_t rows = 0;
+  stream::NonFiniteRows non_finite;
   while (const double* row = in.next()) {
     const double t = row[t_col];
     if (in.time_mark() == stream::TimeMark::clock_step) {
       // The stream's time policy kept this row as the start of a new time line.
+      warn(in.where() + ": the clock stepped back: the rows from here are identified as a log of their own");
       identifier.restart();
       t_last = -std::numeric_limits<double>::infinity();
     }
@@ -97,9 +100,11 @@ std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier&
       dq[j] = row[dq_col[static_cast<std::size_t>(j)]];
       tau[j] = tau_scale[static_cast<std::size_t>(j)] * row[tau_col[static_cast<std::size_t>(j)]];
     }
+    if (!std::isfinite(t) || !q.allFinite() || !dq.allFinite() || !tau.allFinite()) non_finite.note(in, t);
     identifier.add(t, q, dq, tau);
     ++rows;
   }
+  if (non_finite.count() > 0) warn(in.name() + ": " + non_finite.summary());
   return rows;
 }
 

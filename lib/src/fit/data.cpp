@@ -8,6 +8,7 @@
 
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/stream/non_finite.hpp"
 
 namespace momentum::fit {
 
@@ -215,10 +216,12 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
   std::uint64_t stride = 1;
   auto window_of = [&](double t) { return static_cast<std::uint64_t>(std::floor((t - t_first) / options.thin_window)); };
   double shift = 0, last_step = 0;  // after a clock step back, stream time + shift continues t_last
+  stream::NonFiniteRows non_finite;
   while (const double* row = in.next()) {
     if (have_time && in.time_mark() == stream::TimeMark::clock_step) {
       // The stream's time policy kept this row as the start of a new time line: append it
       // like a log of its own (append_series), the next row restarting every joint.
+      warn(in.where() + ": the clock stepped back: the rows from here are fitted as a log of their own");
       shift = t_last + (last_step > 0 ? last_step : 1.0) - row[t_col];
       std::fill(pending.begin(), pending.end(), 1);
     }
@@ -247,10 +250,12 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       table_t.push_back(t);
       for (std::size_t c = 0; c < q_col.size(); ++c) table[c].push_back(row[q_col[c]]);
     }
+    bool row_left_out = false;
     for (std::size_t i = 0; i < joints.size(); ++i) {
       const double dq = row[dq_col[i]], r = row[r_col[i]];
       if (!std::isfinite(dq) || !std::isfinite(r) || !positions_ok) {
         pending[i] = 1;
+        row_left_out = true;
         continue;
       }
       auto& s = series[i];
@@ -261,6 +266,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       s.scored.push_back(counts ? 1 : 0);
       pending[i] = 0;
     }
+    if (row_left_out) non_finite.note(in, stream_t);
     // Never below one window: a first window longer than the budget is kept whole.
     if (options.max_samples > 0 && !series.empty() && series.front().size() > options.max_samples &&
         window_of(t) >= stride) {
@@ -269,6 +275,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
       keep_positions(table_t, table, [&](double t) { return window_of(t) % stride == 0; });
     }
   }
+  if (non_finite.count() > 0) warn(in.name() + ": " + non_finite.summary() + " for some of the joints fitted");
   if (stride > 1) {
     for (auto& s : series) {
       double window_start = s.t.empty() ? 0 : s.t.front();
