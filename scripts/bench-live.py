@@ -47,7 +47,11 @@ def sleep(seconds):
 class Tool:
     """A process fed through a pipe; lines of its output stamped when their bytes arrived."""
 
+    nice = 0  # niceness of the tools (--tool-nice)
+
     def __init__(self, command):
+        if Tool.nice and command[0] != "cat":
+            command = ["nice", "-n", str(Tool.nice)] + command
         self.process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
         self.fd_in = self.process.stdin.fileno()
         self.fd_out = self.process.stdout.fileno()
@@ -222,9 +226,14 @@ def main():
     parser.add_argument("--bin", default=os.path.join(HERE, "..", "build", "bin"))
     parser.add_argument("-n", type=int, default=2000, help="timed rows per measurement (2000)")
     parser.add_argument("--only", choices=["cat", "detect", "identify", "can"], action="append")
+    parser.add_argument("--tool-nice", type=int, default=0,
+                        help="run the tools at this niceness: on a busy machine the driver, like a real consumer "
+                             "of the onset line, then gets a core before the tool's identification")
     args = parser.parse_args()
+    Tool.nice = args.tool_nice
     only = set(args.only or ["cat", "detect", "identify", "can"])
-    print(f"bench-live: {args.n} timed rows each, {PAUSE * 1e3:g} ms idle before each; {load()}")
+    print(f"bench-live: {args.n} timed rows each, {PAUSE * 1e3:g} ms idle before each; {load()}"
+          + (f"; tools at nice {args.tool_nice}" if args.tool_nice else ""))
     with tempfile.TemporaryDirectory() as work:
         if "cat" in only:
             bench_cat(args.n)
