@@ -24,7 +24,8 @@ their residuals and events, a DBC and its captures, vendor exports...), made wit
 tools. A page whose examples use six joints (mo-cat, mo-model, mo-observe) gets a UR5 as
 arm.json, the others the paper's 3-joint arm.
 
-A block fails when bash exits with a status other than 0 (1 is allowed when its last command
+A block that needs a program the machine lacks (jq; gnuplot for mo-plot) is not run, and says
+so. A block fails when bash exits with a status other than 0 (1 is allowed when its last command
 is mo-detect: a collision), or standard error has an error: `tool: error:`, `command not
 found`, `No such file or directory`, a Python traceback. Each block's time is printed.
 """
@@ -39,6 +40,9 @@ import tempfile
 import time
 
 SIX_JOINT_PAGES = {"mo-cat.1", "mo-model.1", "mo-observe.1"}
+# Programs from outside the suite that some examples need (scripts/setup.sh installs them): a
+# block that names one that is missing is not run, and says so.
+NEEDS = {"jq": "jq", "mo-plot": "gnuplot", "stdbuf": "stdbuf"}
 ERRORS = re.compile(r"^[\w.-]+: error:|command not found|No such file or directory|^Traceback", re.M)
 MARK = re.compile(r'^(?:;|<!--)\s*test:\s*(?:(not run):\s*(.*?)|with "(.*)" as "(.*)":\s*(.*?))\s*(?:-->)?$')
 
@@ -371,6 +375,12 @@ def main():
                     continue
                 script = script.replace(mark[1], mark[2])
             script = script.replace(installed, os.path.join(os.path.abspath(args.source), "share", "momentum"))
+            missing = [program for word, program in NEEDS.items()
+                       if re.search(rf"(^|[|;&(\s]){re.escape(word)}\s", script) and not shutil.which(program)]
+            if missing:
+                print(f"{where}: not run: {', '.join(missing)} not installed")
+                skipped += 1
+                continue
             for name, end in named(script):
                 # Not what an earlier example, or this one before naming it again, writes.
                 if not any(written(name, e) for e in earlier + [script[:end]]):
