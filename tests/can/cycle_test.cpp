@@ -125,6 +125,34 @@ TEST(Cycles, SyncCyclesWithMissingValues) {
   EXPECT_EQ(s.decoded, 5U);
 }
 
+// Live, a cycle's row goes out with its last mapped signal, not one period later at the next
+// SYNC (issue 27: 8 ms late at 125 Hz); a cycle that misses a signal still ends at its SYNC.
+TEST(Cycles, RowGoesOutWithTheCyclesLastSignal) {
+  const Database db = Database::parse(kArm, "arm.dbc");
+  CycleAssembler cycles(db, arm_map(db), CycleOptions{});
+  EXPECT_EQ(cycles.add(sync_frame(0.008)), 0U);
+  EXPECT_EQ(cycles.add(message_frame(db, "Joint1_TPDO", {0.5, -0.25}, 0.0081)), 0U);  // q2 still missing
+  ASSERT_EQ(cycles.add(message_frame(db, "Joint2_TPDO", {1.25, 0}, 0.0082)), 1U);     // every signal in
+  EXPECT_DOUBLE_EQ(cycles.row()[0], 0.008);  // timed at its SYNC as before
+  EXPECT_DOUBLE_EQ(cycles.row()[1], 0.5);
+  EXPECT_DOUBLE_EQ(cycles.row()[3], 1.25);
+  // A second value in the same cycle comes too late for its row: counted, not used, and not
+  // carried into the next cycle.
+  EXPECT_EQ(cycles.add(message_frame(db, "Joint2_TPDO", {7, 0}, 0.0083)), 0U);
+  EXPECT_EQ(cycles.stats().repeated_values, 1U);  // q2 (dq2 is not mapped)
+  EXPECT_EQ(cycles.add(sync_frame(0.016)), 0U);  // the cycle's row is out: nothing to close
+  EXPECT_EQ(cycles.add(message_frame(db, "Joint1_TPDO", {0.6, -0.2}, 0.0161)), 0U);
+  // Joint2 lost in this cycle: the fallback, the next SYNC closes it with q2 NaN.
+  ASSERT_EQ(cycles.add(sync_frame(0.024)), 1U);
+  EXPECT_DOUBLE_EQ(cycles.row()[0], 0.016);
+  EXPECT_DOUBLE_EQ(cycles.row()[1], 0.6);
+  EXPECT_TRUE(std::isnan(cycles.row()[3]));
+  EXPECT_FALSE(cycles.finish());  // the cycle opened at 0.024 holds no value
+  EXPECT_EQ(cycles.stats().complete_cycles, 1U);
+  EXPECT_EQ(cycles.stats().incomplete_cycles, 1U);
+  EXPECT_EQ(cycles.stats().missing_values, 1U);
+}
+
 TEST(Cycles, HoldReusesAtMostNCycles) {
   const Database db = Database::parse(kArm, "arm.dbc");
   CycleOptions options;
@@ -167,6 +195,46 @@ TEST(Cycles, MessageBoundary) {
   ASSERT_TRUE(cycles.finish());
   EXPECT_DOUBLE_EQ(cycles.row()[0], 0.020);
   EXPECT_DOUBLE_EQ(cycles.row()[1], 3);
+}
+
+// A boundary message that closes a cycle still waiting for a signal, and completes its own
+// cycle at once, gives two rows from one frame, in order.
+TEST(Cycles, OneFrameCanCloseTwoCycles) {
+  const Database db = Database::parse(kArm, "arm.dbc");
+  CycleOptions options;
+  options.boundary = CycleBoundary::message;
+  options.message_key = 386;  // Joint2_TPDO
+  CycleAssembler cycles(db, parse_column_map("q2 = Joint2_TPDO.q2\ndq2 = Joint2_TPDO.dq2\n", "m", db), options);
+  Frame cut = message_frame(db, "Joint2_TPDO", {1, 0.5}, 0.010);
+  cut.len = 4;  // q2 only: dq2 is missing from this cycle
+  EXPECT_EQ(cycles.add(cut), 0U);
+  ASSERT_EQ(cycles.add(message_frame(db, "Joint2_TPDO", {2, 0.25}, 0.020)), 2U);
+  EXPECT_DOUBLE_EQ(cycles.row(0)[0], 0.010);
+  EXPECT_DOUBLE_EQ(cycles.row(0)[1], 1);
+  EXPECT_TRUE(std::isnan(cycles.row(0)[2]));
+  EXPECT_DOUBLE_EQ(cycles.row(1)[0], 0.020);
+  EXPECT_DOUBLE_EQ(cycles.row(1)[2], 0.25);
+  EXPECT_EQ(cycles.add(message_frame(db, "Joint2_TPDO", {3, 0.125}, 0.030)), 1U);  // complete at once
+  EXPECT_FALSE(cycles.finish());  // nothing left open
+  EXPECT_EQ(cycles.stats().complete_cycles, 2U);
+  EXPECT_EQ(cycles.stats().incomplete_cycles, 1U);
+  EXPECT_EQ(cycles.stats().short_frames, 1U);
+
+  // The same with fixed periods: the frame of a new period closes the one before, and its own.
+  options.boundary = CycleBoundary::period;
+  options.period = 0.008;
+  CycleAssembler periods(db, parse_column_map("q2 = Joint2_TPDO.q2\ndq2 = Joint2_TPDO.dq2\n", "m", db), options);
+  EXPECT_EQ(periods.add(cut), 0U);
+  ASSERT_EQ(periods.add(message_frame(db, "Joint2_TPDO", {2, 0.25}, 0.019)), 2U);
+  EXPECT_DOUBLE_EQ(periods.row(0)[0], 0.010);
+  EXPECT_DOUBLE_EQ(periods.row(1)[0], 0.018);
+  // A second frame in the same period comes after its row: counted, no row, no empty period.
+  EXPECT_EQ(periods.add(message_frame(db, "Joint2_TPDO", {9, 9}, 0.020)), 0U);
+  EXPECT_EQ(periods.add(message_frame(db, "Joint2_TPDO", {4, 0.5}, 0.027)), 1U);
+  EXPECT_DOUBLE_EQ(periods.row(0)[0], 0.026);
+  EXPECT_DOUBLE_EQ(periods.row(0)[1], 4);
+  EXPECT_EQ(periods.stats().repeated_values, 2U);
+  EXPECT_EQ(periods.stats().empty_periods, 0U);
 }
 
 TEST(Cycles, FixedPeriod) {

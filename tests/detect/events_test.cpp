@@ -106,6 +106,38 @@ TEST(Events, CutShortFileKeepsTheOpenEvent) {
   std::remove(path.c_str());
 }
 
+// mo-detect writes the identification at detection in a row of its own after the onset row:
+// read as kind identified; read_events gives a cut-short event its link and contact.
+TEST(Events, IdentifiedRowReadsAndCompletesAnOpenEvent) {
+  const std::string path = temp_path("identified.csv");
+  {
+    EventWriter w(path, 3, {}, /*contact=*/true);
+    w.write(sample(1, EventKind::onset));
+    Event identified = sample(1, EventKind::identified);
+    identified.link = 2;
+    identified.contact.force = 41.5;
+    identified.contact.seen = "force";
+    w.write(identified);
+  }
+  auto r = EventReader::open(path);
+  ASSERT_TRUE(r->next());
+  const auto e = r->next();
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->kind, EventKind::identified);
+  EXPECT_EQ(e->link, 2);
+  EXPECT_EQ(e->joints, std::vector<int>({1, 2, 3}));
+  EXPECT_TRUE(std::isnan(e->t_end));
+  EXPECT_EQ(e->contact.force, 41.5);
+  const auto events = read_events(path);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, EventKind::onset);
+  EXPECT_EQ(events[0].ended_by, EndReason::none);
+  EXPECT_EQ(events[0].link, 2);
+  EXPECT_EQ(events[0].contact.force, 41.5);
+  EXPECT_EQ(events[0].contact.seen, "force");
+  std::remove(path.c_str());
+}
+
 TEST(Events, ExtraColumnsAndOtherOrderStillRead) {
   const std::string path = temp_path("extra.csv");
   write_text(path, "# c\nevent,kind,joints,link,t_detect,t_onset_estimate,note,peak1,peak2\n"
@@ -130,7 +162,7 @@ TEST(Events, DamageIsAnErrorWithFileAndLine) {
       {"1,x,1,1,onset,1,,,3,4\n", ":2: bad t_detect 'x'"},
       {"1,2,3,1,onset,1,,,3,4\n", ":2: link 3 out of 1..2"},
       {"1,2,1,1;5,onset,1,,,3,4\n", ":2: joint 5 out of 1..2"},
-      {"1,2,1,1,begin,1,,,3,4\n", ":2: bad kind 'begin' (onset or end)"},
+      {"1,2,1,1,begin,1,,,3,4\n", ":2: bad kind 'begin' (onset, identified or end)"},
       {"1,2,1,,onset,1,,,3,4\n", ":2: no joints in an event"},
       {"1,2,1,1,end,1,3,later,3,4\n", ":2: bad ended_by 'later'"},
   };

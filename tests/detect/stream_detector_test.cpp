@@ -84,12 +84,24 @@ TEST(StreamDetector, EventsSummaryAndAThresholdPerJoint) {
   std::remove(output.c_str());
 }
 
-// Records what the driver hands it, and decides the class on a chosen row.
+// Records what the driver hands it, and decides the class on a chosen row. identify() records
+// what the output files held when it ran: the onset row must be out by then.
 class FakeAnnotator final : public EventAnnotator {
  public:
-  explicit FakeAnnotator(int* rows) : rows_(rows) {}
+  FakeAnnotator(int* rows, std::vector<std::string>* seen_at_identify = nullptr, std::vector<std::string> files = {})
+      : rows_(rows), seen_(seen_at_identify), files_(std::move(files)) {}
   void add(double, const double*, const double*, const double*) override { ++*rows_; }
-  void annotate(Event& event) override { event.contact.seen = "point"; }
+  void annotate(Event& event) override {
+    if (event.kind == EventKind::end) event.contact.seen = "point";
+  }
+  void identify(Event& event) override {
+    EXPECT_EQ(event.kind, EventKind::identified);
+    event.link = 1;
+    event.contact.force = 12.5;
+    event.contact.seen = "force";
+    if (seen_)
+      for (const std::string& file : files_) seen_->push_back(read_text(file));
+  }
   std::optional<std::string_view> decide() override {
     if (*rows_ == 3) return "collision";
     return std::nullopt;
@@ -98,6 +110,8 @@ class FakeAnnotator final : public EventAnnotator {
 
  private:
   int* rows_;
+  std::vector<std::string>* seen_;
+  std::vector<std::string> files_;
 };
 
 TEST(StreamDetector, AnnotatorSeesEveryRowAndFillsTheEvents) {
@@ -131,9 +145,57 @@ TEST(StreamDetector, AnnotatorSeesEveryRowAndFillsTheEvents) {
   EXPECT_EQ(summary.hooks_run, 1u);  // on the row the class was decided, not at detection
   const std::string text = read_text(output);
   EXPECT_NE(text.find(",seen\n"), std::string::npos) << text;  // with the contact columns
-  EXPECT_NE(text.find(",onset,1,"), std::string::npos) << text;
-  EXPECT_NE(text.find("point\n"), std::string::npos) << text;
+  // The onset row without a fit, then the identified row, then the end row with the whole
+  // event's identification.
+  EXPECT_NE(text.find("0.01,0.01,1,1,onset,1,,,5,,,,,,,,,,,,,,,,\n"
+                      "0.01,0.01,1,1,identified,1,,,5,,,,12.5,,,,,,,,,,,,force\n"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find(",end,1,0.03,release,5,,,,,,,,,,,,,,,,point\n"), std::string::npos) << text;
   EXPECT_EQ(read_text(hooks), "collision collision\n");
+  std::filesystem::remove_all(dir);
+}
+
+// The row that crosses the threshold sends its onset row (and with --pass its stream row) out
+// before identification starts: identification takes up to tens of milliseconds, the onset
+// row and its hook must not wait for it (issue 27: it did, 19 ms).
+TEST(StreamDetector, OnsetRowIsOutBeforeIdentification) {
+  const std::string dir = temp_path("first");
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/arm.urdf")
+      << "<robot name=\"arm\"><link name=\"base\"/><link name=\"tip\"><inertial><mass value=\"1\"/>"
+         "<origin xyz=\"0.5 0 0\"/><inertia ixx=\"0.01\" iyy=\"0.01\" izz=\"0.01\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>"
+         "</inertial></link><joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"tip\"/>"
+         "<axis xyz=\"0 0 1\"/><limit lower=\"-3\" upper=\"3\" effort=\"10\" velocity=\"1\"/></joint></robot>\n";
+  std::ofstream(dir + "/arm.json") << R"({"urdf": "arm.urdf", "root": "base", "tip": "tip"})";
+  const std::string input = dir + "/in.csv", events = dir + "/events.csv", passed = dir + "/passed.csv";
+  std::ofstream(input) << "t,q1,mu1\n0,0,0\n0.01,0,5\n0.02,0,5\n0.03,0,0\n";
+  int rows = 0;
+  std::vector<std::string> seen;
+  StreamDetectorOptions options;
+  options.constant_thresholds = {1};
+  options.profile_path = dir + "/arm.json";
+  options.detector.hold = 0;
+  options.output = passed;
+  options.pass = true;
+  options.events_path = events;
+  options.open_output = [&](momentum::stream::Reader&) {
+    momentum::stream::WriterOptions w;
+    w.line_buffered = true;  // as a live pipe: every row flushed
+    return momentum::stream::Writer::open(passed, w);
+  };
+  options.annotator = [&](const momentum::model::Model&, const momentum::model::Profile&, const Thresholds&,
+                          const FrictionBand&) -> std::unique_ptr<EventAnnotator> {
+    return std::make_unique<FakeAnnotator>(&rows, &seen, std::vector<std::string>{events, passed});
+  };
+  StreamDetector(options).run(input);
+  ASSERT_EQ(seen.size(), 2u);
+  EXPECT_NE(seen[0].find(",onset,1,"), std::string::npos) << seen[0];
+  EXPECT_EQ(seen[0].find(",identified,"), std::string::npos) << seen[0];
+  EXPECT_NE(seen[1].find("\n0.01,0,5,1\n"), std::string::npos) << seen[1];  // the row with its collision link
+  const std::string text = read_text(events);
+  EXPECT_LT(text.find(",onset,1,"), text.find(",identified,1,"));
+  EXPECT_LT(text.find(",identified,1,"), text.find(",end,1,"));
   std::filesystem::remove_all(dir);
 }
 

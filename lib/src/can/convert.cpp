@@ -291,7 +291,8 @@ void Converter::run() {
       warned_untimed = true;
       warn(s.source->where() + ": capture without timestamps (candump without -t): t is nan");
     }
-    if (s.cycles->add(frame)) s.writer->row(s.cycles->row()), ++s.rows;
+    const std::size_t closed = s.cycles->add(frame);
+    for (std::size_t k = 0; k < closed; ++k) s.writer->row(s.cycles->row(k)), ++s.rows;
   }
   if (s.cycles->finish()) s.writer->row(s.cycles->row()), ++s.rows;
   s.writer->close();

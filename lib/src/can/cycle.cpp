@@ -147,12 +147,14 @@ CycleAssembler::CycleAssembler(const Database& db, std::vector<ColumnSource> sou
   fresh_.assign(sources_.size(), 0);
   age_.assign(sources_.size(), 0);
   ever_.assign(sources_.size(), 0);
-  row_.assign(columns_.size(), std::numeric_limits<double>::quiet_NaN());
+  for (auto& row : rows_) row.assign(columns_.size(), std::numeric_limits<double>::quiet_NaN());
 }
 
 void CycleAssembler::open_cycle(double t) {
   open_ = true;
+  started_ = true;
   any_value_ = false;
+  fresh_count_ = 0;
   cycle_t_ = t;
   std::fill(fresh_.begin(), fresh_.end(), 0);
 }
@@ -160,21 +162,22 @@ void CycleAssembler::open_cycle(double t) {
 bool CycleAssembler::close_cycle() {
   if (!open_) return false;
   open_ = false;
-  row_[0] = cycle_t_;
+  std::vector<double>& row = rows_[ready_++];
+  row[0] = cycle_t_;
   bool complete = true;
   for (std::size_t c = 0; c < sources_.size(); ++c) {
     if (fresh_[c]) {
       age_[c] = 0;
-      row_[c + 1] = value_[c];
+      row[c + 1] = value_[c];
       continue;
     }
     complete = false;
     ++age_[c];
     if (ever_[c] && age_[c] <= options_.hold) {
-      row_[c + 1] = value_[c];
+      row[c + 1] = value_[c];
       ++stats_.held_values;
     } else {
-      row_[c + 1] = std::numeric_limits<double>::quiet_NaN();
+      row[c + 1] = std::numeric_limits<double>::quiet_NaN();
       ++stats_.missing_values;
     }
   }
@@ -190,7 +193,7 @@ void CycleAssembler::take(const Frame& frame, const Message& message) {
   const std::size_t mi = static_cast<std::size_t>(&message - db_->messages().data());
   bool truncated = false;
   const std::int32_t base = message_map_[mi];
-  if (base < 0 || !open_) {
+  if (base < 0 || !started_) {
     // Not mapped, or before the first cycle: only the length check is of interest.
     if (frame.len < message.length) ++stats_.short_frames;
     return;
@@ -200,39 +203,50 @@ void CycleAssembler::take(const Frame& frame, const Message& message) {
   for (std::size_t k = 0; k < n; ++k) {
     const std::int32_t c = signal_column_[static_cast<std::size_t>(base) + decoded_[k].index];
     if (c < 0) continue;
-    if (fresh_[static_cast<std::size_t>(c)]) ++stats_.repeated_values;
-    value_[static_cast<std::size_t>(c)] = decoded_[k].value;
-    fresh_[static_cast<std::size_t>(c)] = 1;
-    ever_[static_cast<std::size_t>(c)] = 1;
+    const auto column = static_cast<std::size_t>(c);
+    if (!open_) {
+      // The cycle's row is out (every signal was in): a second value of the cycle comes too
+      // late for it. Counted as repeated, and not kept for the next cycle (it is this one's).
+      ++stats_.repeated_values;
+      continue;
+    }
+    if (fresh_[column]) ++stats_.repeated_values;
+    else ++fresh_count_;
+    value_[column] = decoded_[k].value;
+    fresh_[column] = 1;
+    ever_[column] = 1;
     any_value_ = true;
   }
+  // Every mapped signal of the cycle is in: nothing more can change its row, so it goes out
+  // now rather than at the next boundary (one cycle period later).
+  if (open_ && fresh_count_ == sources_.size()) close_cycle();
 }
 
-bool CycleAssembler::add(const Frame& frame) {
+std::size_t CycleAssembler::add(const Frame& frame) {
+  ready_ = 0;
   ++stats_.frames;
   if (frame.error) {
     ++stats_.error_frames;
-    return false;
+    return 0;
   }
   if (frame.rtr) {
     ++stats_.remote_frames;
-    return false;
+    return 0;
   }
   const std::uint32_t key = frame.key();
   const double t = frame.has_time ? frame.seconds() : std::numeric_limits<double>::quiet_NaN();
-  bool closed = false;
   switch (options_.boundary) {
     case CycleBoundary::sync:
       if (key == options_.sync_key) {
         ++stats_.sync_frames;
-        closed = close_cycle();
+        close_cycle();
         open_cycle(t);
-        return closed;
+        return ready_;
       }
       break;
     case CycleBoundary::message:
       if (key == options_.message_key) {
-        closed = close_cycle();
+        close_cycle();
         open_cycle(t);
       }
       break;
@@ -250,8 +264,8 @@ bool CycleAssembler::add(const Frame& frame) {
       const std::int64_t index = (frame.time_ns - t0_ns_) >= 0 ? (frame.time_ns - t0_ns_) / period_ns
                                                                 : -((t0_ns_ - frame.time_ns + period_ns - 1) / period_ns);
       if (index > period_index_) {
-        closed = any_value_ ? close_cycle() : false;
-        if (!closed) ++stats_.empty_periods;
+        // A period whose row went out early is not empty; an open one without a value is.
+        if (open_ && !(any_value_ && close_cycle())) ++stats_.empty_periods;
         stats_.empty_periods += static_cast<std::uint64_t>(index - period_index_ - 1);
         period_index_ = index;
         Frame start;
@@ -264,16 +278,17 @@ bool CycleAssembler::add(const Frame& frame) {
   const Message* m = db_->find(key);
   if (m == nullptr) {
     ++stats_.unknown_ids;
-    if (!open_) ++stats_.before_first_cycle;
-    return closed;
+    if (!started_) ++stats_.before_first_cycle;
+    return ready_;
   }
   ++stats_.decoded;
-  if (!open_) ++stats_.before_first_cycle;
+  if (!started_) ++stats_.before_first_cycle;
   take(frame, *m);
-  return closed;
+  return ready_;
 }
 
 bool CycleAssembler::finish() {
+  ready_ = 0;
   if (!open_ || !any_value_) {
     open_ = false;
     return false;

@@ -62,9 +62,6 @@ void EventContact::add(double t, const double* q, const double* x, const double*
 
 void EventContact::fill(detect::Event& event, bool whole) {
   const auto samples = window_.samples();
-  // Candidates from the signature at detection on: joints that fire later may be the arm's
-  // reaction (a stop, a back-off) seen through the model's errors, not the contact.
-  if (event.kind == detect::EventKind::onset) first_link_ = event.link;
   const Location loc = locator_.locate(samples, std::min(first_link_, event.link), event.link,
                                        whole ? LinkChoice::proximal_accepted : LinkChoice::best_fit);
   auto& c = event.contact;
@@ -98,11 +95,18 @@ void EventContact::annotate(detect::Event& event) {
     // Already over a collision level, or the pulse already over or wider than the rule's width,
     // at detection: the onset row says so, and decide() still reports it once for the hooks.
     if (decide_class()) decision_reported_ = false;
-    fill(event, false);
+    // Candidates from the signature at detection on: joints that fire later may be the arm's
+    // reaction (a stop, a back-off) seen through the model's errors, not the contact.
+    first_link_ = event.link;
+    if (decided_ != EventClass::unknown) event.contact.event_class = std::string(class_name(decided_));
   } else {
     fill(event, true);
     window_.close();
   }
+}
+
+void EventContact::identify(detect::Event& event) {
+  if (window_.is_open()) fill(event, false);
 }
 
 std::optional<EventClass> EventContact::decide_class() {

@@ -65,7 +65,14 @@ double* contact_number(Event::Contact& c, std::size_t k) {
 
 }  // namespace
 
-std::string_view kind_name(EventKind kind) { return kind == EventKind::onset ? "onset" : "end"; }
+std::string_view kind_name(EventKind kind) {
+  switch (kind) {
+    case EventKind::onset: return "onset";
+    case EventKind::identified: return "identified";
+    case EventKind::end: break;
+  }
+  return "end";
+}
 
 std::string_view end_reason_name(EndReason reason) {
   switch (reason) {
@@ -281,8 +288,9 @@ std::optional<Event> EventReader::parse(const std::string& line) const {
     const std::string_view kind = field(fields[c_kind_]);
     if (equal_ignoring_case(kind, "onset")) e.kind = EventKind::onset;
     else if (equal_ignoring_case(kind, "end")) e.kind = EventKind::end;
+    else if (equal_ignoring_case(kind, "identified")) e.kind = EventKind::identified;
     else if (other) return std::nullopt;
-    else throw fail("bad kind '" + core::printable(kind) + "' (onset or end)");
+    else throw fail("bad kind '" + core::printable(kind) + "' (onset, identified or end)");
   }
   e.t_onset_estimate = c_onset_ != npos ? number(c_onset_, "t_onset_estimate") : std::numeric_limits<double>::quiet_NaN();
   e.t_detect = number(c_detect_, "t_detect");
@@ -345,6 +353,12 @@ std::vector<Event> read_events(const std::string& path) {
       events.back().t_end = std::numeric_limits<double>::quiet_NaN();
       events.back().ended_by = EndReason::none;
       pending = true;
+    } else if (e->kind == EventKind::identified) {
+      // What identification found at detection: the link and contact of the open event.
+      if (pending && events.back().id == e->id) {
+        events.back().link = e->link;
+        events.back().contact = e->contact;
+      }
     } else if (pending && events.back().id == e->id) {
       events.back() = *e;
       pending = false;

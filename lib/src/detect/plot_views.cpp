@@ -44,6 +44,11 @@ std::vector<EventSpan> event_spans(const std::vector<Event>& events) {
   for (const Event& e : events) {
     if (e.kind == EventKind::onset) {
       spans.push_back({e.id, e.t_onset_estimate, e.t_detect, NAN, e.link});
+    } else if (e.kind == EventKind::identified) {
+      // The link identification chose at detection; without its onset row, the event from here.
+      auto it = std::find_if(spans.rbegin(), spans.rend(), [&](const EventSpan& s) { return s.id == e.id; });
+      if (it == spans.rend()) spans.push_back({e.id, e.t_onset_estimate, e.t_detect, NAN, e.link});
+      else it->link = e.link;
     } else {
       auto it = std::find_if(spans.rbegin(), spans.rend(), [&](const EventSpan& s) { return s.id == e.id; });
       if (it == spans.rend()) {

@@ -510,6 +510,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
                 in->where());
       skipped_seen = in->rows_skipped_before();
       if (identify) identify->add(t, q.data(), x.data(), idq.empty() ? nullptr : dq.data());
+      bool to_identify = false;
       for (Event e : detector->step(t, x.data(), dq.data(), irest.empty() ? nullptr : x_rest.data())) {
         e.id += events_before;
         if (identify) identify->annotate(e);
@@ -518,6 +519,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
           ++summary.collisions;
           open_event = e;
           if (runner && !hooks_on_class) runner->launch(e);
+          to_identify = identify != nullptr;
         }
       }
       if (hooks_on_class) {
@@ -531,6 +533,17 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
         std::copy(row, row + in->columns().size(), out.begin());
         out.back() = detector->open_link();
         passed->row(out.data());
+      }
+      if (to_identify) {
+        // Everything this row decided is out (the onset row is flushed as written; a live
+        // --pass row now): identification at detection, the slow part, follows in its own row.
+        if (raw && raw->interactive()) raw->flush();
+        Event identified = open_event;
+        identified.kind = EventKind::identified;
+        identify->identify(identified);
+        write_event(identified);
+        open_event.link = identified.link;
+        open_event.contact = identified.contact;
       }
       for (auto* hook : {&runner, &contact_runner, &blind_runner})
         if (*hook && (*hook)->busy()) (*hook)->reap();

@@ -70,6 +70,16 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
       }
       continue;
     }
+    if (e->kind == detect::EventKind::identified) {
+      // Identification at detection (mo-detect writes it after the onset row): the link at
+      // detection is the identified one, as the end row's is.
+      const auto it = e->id != 0 ? event_index.find(e->id) : event_index.end();
+      if (it != event_index.end()) {
+        if (e->link != 0) detections[it->second].link = detections[it->second].final_link = e->link;
+        read_contact(*e, detections[it->second]);
+        continue;
+      }
+    }
     if (e->id != 0 && event_index.count(e->id)) continue;  // a repeated row of an event
     Detection d;
     d.where = reader->where();

@@ -3,9 +3,11 @@
 // control cycle ends and the next begins, and what to write for a value that did not arrive.
 //
 // CANopen drives (CiA 402) answer a SYNC frame (0x080) with their TPDOs; a cycle is the SYNC
-// and the frames up to the next SYNC, and becomes one row timed at its SYNC. A value that did
-// not arrive in its cycle is stale: it is written as NaN and counted, unless --hold allows
-// reusing the last value for a bounded number of cycles.
+// and the frames up to the next SYNC, and becomes one row timed at its SYNC. The row goes out
+// as soon as every mapped signal of the cycle is in (live, a period earlier than the next SYNC);
+// a cycle with a signal missing is closed by the next boundary (SYNC, boundary message or
+// period). A value that did not arrive in its cycle is stale: it is written as NaN and counted,
+// unless --hold allows reusing the last value for a bounded number of cycles.
 
 #include <cstdint>
 #include <string>
@@ -82,7 +84,8 @@ struct CycleStats {
   std::uint64_t empty_periods = 0;      // period mode: periods without any frame (no row)
   std::uint64_t missing_values = 0;     // values written as NaN
   std::uint64_t held_values = 0;        // values reused by --hold
-  std::uint64_t repeated_values = 0;    // a column fed twice in one cycle (the last counts)
+  std::uint64_t repeated_values = 0;    // a column fed twice in one cycle (the last before its
+                                        // row went out counts)
 };
 
 // Assembles rows `t, column...` from frames in capture order. Constant memory.
@@ -93,14 +96,18 @@ class CycleAssembler {
 
   // Output columns: "t" then the sources' columns.
   const std::vector<std::string>& columns() const { return columns_; }
-  // Feeds one frame. Returns true when it closed a cycle: row() then holds that cycle's row
-  // (t in seconds; NaN when the capture has no timestamps). Throws momentum::Error in period
-  // mode for a frame without a timestamp.
-  bool add(const Frame& frame);
+  // Feeds one frame. Returns how many cycles it closed (0, 1 or 2): its boundary closes the
+  // cycle before it when that still waits for a signal, and its signals may complete the
+  // cycle it opens (the last mapped signal in: the row goes out at once). row(0), row(1) hold
+  // them in order (t in seconds; NaN when the capture has no timestamps). A value arriving
+  // after its cycle's row went out is counted in repeated_values and not used. Throws
+  // momentum::Error in period mode for a frame without a timestamp.
+  std::size_t add(const Frame& frame);
   // End of input: returns true when the last open cycle received any value; row() holds it.
   bool finish();
-  // The row last completed: columns().size() values, valid until the next add()/finish().
-  const double* row() const { return row_.data(); }
+  // Row k (0 or 1) of those the last add() or finish() closed: columns().size() values, valid
+  // until the next add()/finish().
+  const double* row(std::size_t k = 0) const { return rows_[k].data(); }
   const CycleStats& stats() const { return stats_; }
 
  private:
@@ -119,9 +126,14 @@ class CycleAssembler {
   std::vector<char> fresh_;                  // arrived in the open cycle
   std::vector<int> age_;                     // cycles since the value last arrived
   std::vector<char> ever_;                   // has a value at all
-  std::vector<double> row_;
+  std::vector<double> rows_[2];
+  std::size_t ready_ = 0;                    // rows the last add()/finish() closed
+  std::size_t fresh_count_ = 0;              // columns fresh in the open cycle
   std::vector<SignalValue> decoded_;
+  // open_: the cycle collects values; started_: a first boundary was seen (the cycle after an
+  // early row is still the same cycle, up to its boundary).
   bool open_ = false;
+  bool started_ = false;
   bool any_value_ = false;
   double cycle_t_ = 0;
   bool have_t0_ = false;

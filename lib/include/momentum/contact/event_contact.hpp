@@ -3,11 +3,12 @@
 // sees every row, keeps the rows of the open event (ContactWindow), and fills each event row the
 // detector writes with the contact's link, point, force and class (detect::Event::contact).
 //
-//   onset row: fitted on the rows from the estimated onset to detection; its class when already
-//              known (a joint over its collision level, or the rise time already decided);
-//   end row:   fitted on the whole event (peak force, impulse), classified on its full rise.
+//   onset row:      no fit (it goes out at once); its class when already known (a joint over
+//                   its collision level, or the rise time already decided);
+//   identified row: the onset fitted on the rows from the estimated onset to detection;
+//   end row:        fitted on the whole event (peak force, impulse), classified on its full rise.
 //
-// The link of both rows becomes the identified one (Locator::locate): at onset the best fit
+// The link of the identified and end rows becomes the identified one (Locator::locate): at onset the best fit
 // among the fired signature's link and those beyond it; at the end the most proximal of them
 // whose fit the calibrated noise accepts (LinkChoice::proximal_accepted).
 //
@@ -52,8 +53,13 @@ class EventContact final : public detect::EventAnnotator {
   // band: friction flips there, and its compensation is least sure.
   void add(double t, const double* q, const double* x, const double* dq) override;
   // Fills `event` (a row the detector produced on the last row added) and moves the window:
-  // an onset opens it, an end closes it.
+  // an onset opens it (and gets its class when already decided; no fit), an end is fitted over
+  // the whole event and closes it.
   void annotate(detect::Event& event) override;
+  // Fits the open event on its rows up to detection: link, point, force (the onset row's
+  // identification, written as its identified row). Call after annotate() on the onset row and
+  // before the next add().
+  void identify(detect::Event& event) override;
   // Once per event, on the row where its class is decided: the class; nullopt on other rows,
   // without a rule, or with no event open.
   std::optional<EventClass> decide_class();

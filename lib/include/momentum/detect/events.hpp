@@ -8,8 +8,10 @@
 //   7.104,7.184,3,1;2;3,end,1,7.9,release,12.1,15.03,8.2
 //
 // Lines starting with '#' are comments (provenance). Each event has exactly one onset row,
-// written the moment it is detected, and one end row; rows of different events never
-// interleave (an event ends before the next one opens).
+// written the moment it is detected, and one end row; with contact identification an
+// `identified` row comes between them, written once the identification at detection is done
+// (the onset row does not wait for it). Rows of different events never interleave (an event
+// ends before the next one opens).
 
 #include <cmath>
 #include <cstdint>
@@ -24,7 +26,10 @@
 
 namespace momentum::detect {
 
-enum class EventKind { onset, end };
+// onset: the row on which the event was declared, as the detector knows it (no fit);
+// identified: the same event once identification at detection is done (identified link,
+// contact point, force, class when decided); end: the event over, with its whole identification.
+enum class EventKind { onset, end, identified };
 // Why an event ended: every joint back in its band for the hold time (release); a new contact
 // began while it was open (next: the row that opened the next event); end of input with the
 // event still open; SIGINT/SIGTERM with the event still open; the clock stepped back with the
@@ -44,11 +49,12 @@ struct Event {
   double t_detect = 0;
   // Isolated link: the most distal joint that fired (paper's signature eta = [1..1, 0..0]),
   // 1..n. On an onset row: joints fired up to detection; on an end row: over the whole event.
+  // On identified and end rows of an identified event: the link identification chose.
   int link = 0;
   // Every joint that fired, ascending, 1-based. Written "1;2;3".
   std::vector<int> joints;
   // End rows only (NaN / none on onset rows): first row of the quiet run that closed the event
-  // (release), or the last row read (eof, signal), s.
+  // (release), or the last row read (eof, signal), s. Identified rows: NaN / none, as onset rows.
   double t_end = 0;
   EndReason ended_by = EndReason::none;
   // Per joint, the peak |signal| (Nm) since the joint left its band or since detection,
@@ -167,7 +173,8 @@ class EventReader {
 
 // Reads a whole event file and returns its end rows (one per event, with the final joints,
 // link and peaks); events without an end row (a file cut short) are returned from their onset
-// row with ended_by none and t_end NaN. Throws like EventReader. For plots and evaluation of
+// row, kind onset, with ended_by none and t_end NaN, and the link and contact fields of their
+// identified row when there is one. Throws like EventReader. For plots and evaluation of
 // finished runs; streaming consumers use EventReader.
 std::vector<Event> read_events(const std::string& path);
 

@@ -4,8 +4,10 @@
 // for the signal the stream carries), runs the Detector row by row, lets an EventAnnotator
 // identify and classify each event beside it, runs the hooks and writes the events (CSV or
 // JSON Lines) or the stream with a collision column. Every event row is flushed the moment it
-// is written; SIGINT and SIGTERM close the open event and end the run, also while the input
-// is quiet.
+// is written. On the row that crosses a threshold the onset row, the --on-collision hook and
+// the --pass row go out first; identification follows in its own row (kind identified) on the
+// same input row. SIGINT and SIGTERM close the open event and end the run, also while the
+// input is quiet.
 
 #include <cmath>
 #include <cstdint>
@@ -34,8 +36,15 @@ class EventAnnotator {
   // Every row, before the detector's step on it: t (s), q, the residual x and the velocities dq
   // (n each; dq null when the stream has none).
   virtual void add(double t, const double* q, const double* x, const double* dq) = 0;
-  // Fills the contact fields of an event row the detector produced on the last row added.
+  // Fills what needs no fit in an event row the detector produced on the last row added: an
+  // onset row opens the event and gets its class when already decided at detection (a joint
+  // over its collision level); an end row gets everything, fitted over the whole event.
   virtual void annotate(Event& event) = 0;
+  // For an onset row already annotated and written: the identification at detection (the
+  // identified link, contact point, force; the class when decided), which the driver writes
+  // as the event's `identified` row. The costly part (a fit over the candidate links, up to
+  // tens of milliseconds), so that the onset row and its hook do not wait for it.
+  virtual void identify(Event& event) = 0;
   // Once per event, on the row where its class is decided: the class name ("collision",
   // "contact", or "" when undecidable); nullopt on other rows.
   virtual std::optional<std::string_view> decide() = 0;
