@@ -365,6 +365,20 @@ TEST(Mcap, TruncatedCompressedChunkAndTruncatedFile) {
   EXPECT_NE(r.damage[0].find("truncated file"), std::string::npos) << r.damage[0];
 }
 
+TEST(Mcap, TruncatedCompressedChunkKeepsTheMessagesOfItsCompleteBlocks) {
+  // 3000 messages (about 500 KiB) make several zstd blocks (128 KiB) and lz4 blocks (64 KiB).
+  for (const std::string compression : {"zstd", "lz4"}) {
+    const std::string chunk = chunk_record(messages(0, 3000), compression);
+    const std::string file = bag_start() + header_records() + chunk.substr(0, chunk.size() * 6 / 10);
+    const Read r = read_all(file);
+    ASSERT_GT(r.log_times.size(), 0u) << compression;
+    ASSERT_LT(r.log_times.size(), 3000u) << compression;
+    EXPECT_EQ(r.log_times, times(0, static_cast<int>(r.log_times.size()))) << compression;
+    ASSERT_EQ(r.damage.size(), 1u);
+    EXPECT_NE(r.damage[0].find("its complete messages kept"), std::string::npos) << r.damage[0];
+  }
+}
+
 TEST(Mcap, WrongMagicAndVersion) {
   mcap::MemorySource csv("t,q1\n0,1\n");
   EXPECT_THROW(mcap::RecordReader(csv, "x"), momentum::Error);

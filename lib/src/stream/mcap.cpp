@@ -93,6 +93,55 @@ std::string hex32(std::uint32_t v) {
 
 std::string mib(std::uint64_t bytes) { return std::to_string(bytes >> 20) + " MiB"; }
 
+// Decompresses a chunk's records `in` into `out` (sized to the chunk's uncompressed size) and
+// returns the bytes produced. Streaming, so that a cut input (`cut`) gives what its complete
+// blocks hold; `failure` says why the data is corrupt (a cut input running out is no failure).
+std::size_t decompress(const std::string& compression, std::string_view in, std::string& out, bool cut,
+                       std::string& failure) {
+  if (compression == "zstd") {
+    std::unique_ptr<ZSTD_DStream, decltype(&ZSTD_freeDStream)> stream(ZSTD_createDStream(), &ZSTD_freeDStream);
+    if (!stream || ZSTD_isError(ZSTD_initDStream(stream.get()))) throw Error("zstd: cannot create a decompression context");
+    ZSTD_inBuffer input{in.data(), in.size(), 0};
+    ZSTD_outBuffer output{out.data(), out.size(), 0};
+    for (;;) {
+      const std::size_t before_in = input.pos, before_out = output.pos;
+      const std::size_t hint = ZSTD_decompressStream(stream.get(), &output, &input);
+      if (ZSTD_isError(hint)) {
+        failure = ZSTD_getErrorName(hint);
+        break;
+      }
+      if (hint == 0) break;  // the frame is complete
+      if (input.pos == before_in && output.pos == before_out) {
+        if (input.pos < input.size) failure = "more data than its uncompressed_size";
+        else if (!cut) failure = "the frame ends early";
+        break;
+      }
+    }
+    return output.pos;
+  }
+  LZ4F_dctx* raw = nullptr;
+  if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) throw Error("lz4: cannot create a decompression context");
+  std::unique_ptr<LZ4F_dctx, decltype(&LZ4F_freeDecompressionContext)> context(raw, &LZ4F_freeDecompressionContext);
+  std::size_t in_at = 0, out_at = 0;
+  for (;;) {
+    std::size_t out_size = out.size() - out_at, in_size = in.size() - in_at;
+    const std::size_t hint = LZ4F_decompress(context.get(), out.data() + out_at, &out_size, in.data() + in_at, &in_size, nullptr);
+    if (LZ4F_isError(hint)) {
+      failure = LZ4F_getErrorName(hint);
+      break;
+    }
+    in_at += in_size;
+    out_at += out_size;
+    if (hint == 0) break;  // the frame is complete
+    if (in_size == 0 && out_size == 0) {
+      if (in_at < in.size()) failure = "more data than its uncompressed_size";
+      else if (!cut) failure = "the frame ends early";
+      break;
+    }
+  }
+  return out_at;
+}
+
 }  // namespace
 
 std::uint32_t crc32(std::string_view bytes, std::uint32_t crc) {
@@ -347,7 +396,7 @@ bool RecordReader::next_top_level(Item& item) {
     chunk_have_ = have;
     load_chunk(content, !whole);
     in_.consume(have);
-    if (!whole && !in_chunk_) {
+    if (!whole && !in_chunk_) {  // cut inside the chunk's fields
       ended_ = true;
       item = report("truncated record", "truncated record (chunk, " + std::to_string(have) + " of " + std::to_string(length) + " bytes)");
       return true;
@@ -403,61 +452,28 @@ void RecordReader::load_chunk(std::string_view content, bool truncated) {
   if (std::find(compressions_.begin(), compressions_.end(), compression) == compressions_.end())
     compressions_.push_back(compression);
   ++chunks_;
+  std::string failure;
+  if (compression.empty()) {
+    chunk_.assign(records);
+  } else {
+    chunk_.resize(static_cast<std::size_t>(uncompressed_size));
+    chunk_.resize(decompress(compression, records, chunk_, truncated, failure));
+  }
   if (truncated) {
-    // The complete records of an uncompressed chunk are still good; a compressed one is lost.
-    if (compression.empty()) {
-      chunk_.assign(records);
-      chunk_truncated_ = true;
-      in_chunk_ = true;
-    }
+    // What the records that arrived hold is still good: their complete records are read, the
+    // damage is reported after them. The CRC covers the whole chunk and cannot be checked.
+    chunk_truncated_ = true;
+    in_chunk_ = true;
     return;
   }
-  if (compression.empty()) {
-    if (records.size() != uncompressed_size) {
-      report("bad chunk", "bad chunk: " + std::to_string(records.size()) + " bytes of records, its uncompressed_size says " +
-                              std::to_string(uncompressed_size));
-      return;
-    }
-    chunk_.assign(records);
-  } else if (compression == "zstd") {
-    chunk_.resize(static_cast<std::size_t>(uncompressed_size));
-    const std::size_t got = ZSTD_decompress(chunk_.data(), chunk_.size(), records.data(), records.size());
-    if (ZSTD_isError(got) || got != uncompressed_size) {
-      report("bad chunk", std::string("bad chunk: zstd: ") +
-                              (ZSTD_isError(got) ? ZSTD_getErrorName(got)
-                                                 : ("decompressed to " + std::to_string(got) + " bytes, not " +
-                                                    std::to_string(uncompressed_size)).c_str()));
-      chunk_.clear();
-      return;
-    }
-  } else {  // lz4 frame format
-    chunk_.resize(static_cast<std::size_t>(uncompressed_size));
-    LZ4F_dctx* raw = nullptr;
-    if (LZ4F_isError(LZ4F_createDecompressionContext(&raw, LZ4F_VERSION))) throw Error(at + "lz4: cannot create a decompression context");
-    std::unique_ptr<LZ4F_dctx, decltype(&LZ4F_freeDecompressionContext)> context(raw, &LZ4F_freeDecompressionContext);
-    std::size_t in_at = 0, out_at = 0, hint = 1;
-    std::string failure;
-    while (hint != 0) {
-      std::size_t out_size = chunk_.size() - out_at, in_size = records.size() - in_at;
-      hint = LZ4F_decompress(context.get(), chunk_.data() + out_at, &out_size, records.data() + in_at, &in_size, nullptr);
-      if (LZ4F_isError(hint)) {
-        failure = LZ4F_getErrorName(hint);
-        break;
-      }
-      in_at += in_size;
-      out_at += out_size;
-      if (hint != 0 && in_size == 0 && out_size == 0) {
-        failure = in_at == records.size() ? "the frame ends early" : "more data than its uncompressed_size";
-        break;
-      }
-    }
-    if (failure.empty() && out_at != uncompressed_size)
-      failure = "decompressed to " + std::to_string(out_at) + " bytes, not " + std::to_string(uncompressed_size);
-    if (!failure.empty()) {
-      report("bad chunk", "bad chunk: lz4: " + failure);
-      chunk_.clear();
-      return;
-    }
+  if (failure.empty() && chunk_.size() != uncompressed_size)
+    failure = (compression.empty() ? std::to_string(chunk_.size()) + " bytes of records"
+                                   : "decompressed to " + std::to_string(chunk_.size()) + " bytes") +
+              ", its uncompressed_size says " + std::to_string(uncompressed_size);
+  if (!failure.empty()) {
+    report("bad chunk", "bad chunk: " + (compression.empty() ? "" : compression + ": ") + failure);
+    chunk_.clear();
+    return;
   }
   if (crc != 0) {
     const std::uint32_t actual = crc32(chunk_);

@@ -107,14 +107,15 @@ class RecordReader {
   // ends inside the magic or the Header.
   RecordReader(ByteSource& source, std::string name);
 
-  // The next item. Damage is reported once, as an item, and reading goes on where it can:
-  // a Chunk whose CRC does not match its records or whose records overrun it ("bad chunk"),
-  // a Message record too short for its fields ("bad record"), a record cut off by the end of
-  // the input ("truncated record"; the complete records of a cut uncompressed chunk are
-  // returned first) or an input that ends without its Footer ("truncated file"), after which
-  // the next item is end. Throws momentum::Error for what makes the rest of the file unusable:
-  // a chunk (or record) larger than kMaxChunkBytes, an unknown compression, a chunk that does
-  // not decompress to its stated size, opcode 0.
+  // The next item. Damage is reported once, as an item, and reading goes on where it can: a
+  // Chunk whose CRC does not match its records, that does not decompress to its stated size or
+  // whose records overrun it ("bad chunk": its messages are skipped), a Message record too
+  // short for its fields ("bad record"), a record cut off by the end of the input ("truncated
+  // record"; the complete records in what arrived of a cut chunk are returned first: all of an
+  // uncompressed one's, those of a compressed one's complete blocks) or an input that ends
+  // without its Footer before the Data End record ("truncated file"), after which the next
+  // item is end. Throws momentum::Error for what makes the rest of the file unusable: a chunk
+  // (or record) larger than kMaxChunkBytes, an unknown compression, opcode 0.
   Item next();
 
   // After Item::channel: the new channel. Channels are also kept by id (find_channel).
