@@ -16,6 +16,7 @@
 #include "momentum/stream/joint_state.hpp"
 #include "momentum/stream/mcap.hpp"
 #include "momentum/stream/reader.hpp"
+#include "momentum/stream/writer.hpp"
 
 namespace ms = momentum::stream;
 namespace mcap = momentum::stream::mcap;
@@ -493,6 +494,11 @@ TEST(McapReader, SeveralJointStateTopicsNeedATopic) {
   EXPECT_THROW(ms::Reader::open(path, options), momentum::Error);
   options.topic = "/nowhere";
   EXPECT_THROW(ms::Reader::open(path, options), momentum::Error);
+}
+
+TEST(McapReader, BagsAreReadNotWritten) {
+  EXPECT_EQ(ms::encoding_name(ms::Encoding::mcap), "mcap");
+  EXPECT_THROW(ms::Writer::open(temp_bag("out.mcap", ""), {ms::Encoding::mcap, false}), momentum::Error);
 }
 
 }  // namespace
