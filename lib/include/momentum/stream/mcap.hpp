@@ -4,7 +4,7 @@
 // of samples needs is decoded: Header, Schema, Channel, Message and Chunk records (chunks
 // uncompressed, "zstd" or "lz4"); every other record (Message Index, Attachment, Metadata, the
 // Summary section) is skipped by its length without being held. Reading never seeks, so a bag
-// may come through a pipe.
+// may come through a pipe; summary_channels() reads a file's channel list from its end.
 
 #include <cstdint>
 #include <functional>
