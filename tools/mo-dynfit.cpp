@@ -8,6 +8,7 @@
 #include "momentum/core/file.hpp"
 #include "momentum/dynfit/report.hpp"
 #include "momentum/dynfit/run.hpp"
+#include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -16,7 +17,7 @@ using namespace momentum;
 int main(int argc, char** argv) {
   cli::Tool tool("mo-dynfit", "Identify corrections to the URDF's inertial parameters from collision-free logs.");
   tool.app().footer("\nExample:\n  mo-dynfit -p arm.json --torque-held --update log.csv\n\nMore: man mo-dynfit");
-  tool.add_inputs("streams of collision-free motion (t, q<j>, dq<j>, tau_m<j> or i<j>); - or none: stdin");
+  tool.add_stream_inputs("streams of collision-free motion (t, q<j>, dq<j>, tau_m<j> or i<j>); - or none: stdin");
   tool.add_profile(true);
   tool.add_strict();
   tool.add_payload();
@@ -80,6 +81,7 @@ int main(int argc, char** argv) {
                                                                                     : nullptr;
     model::Profile profile = model::load_profile(profile_name);
     model::select_payload(profile, tool.payload());
+    tool.set_chain_joints(model::build_model(profile).joint_names());  // a bag's joints are matched to them by name
     if (filter_gain > 0) options.identify.filter_gain = filter_gain;
     options.identify.fit_friction = !no_friction;
     options.identify.seed = tool.seed();

@@ -31,7 +31,7 @@ bool stdin_is_a_stream() {
 int main(int argc, char** argv) {
   cli::Tool tool("mo-model", "Show the chain a robot profile builds, and its dynamics along a stream.");
   tool.app().footer("\nExample:\n  mo-model -p arm.json\n\nMore: man mo-model");
-  tool.add_inputs("input stream with q<j> (dq<j>, ddq<j>); none: the chain, or stdin when it is a pipe or file");
+  tool.add_stream_inputs("input stream with q<j> (dq<j>, ddq<j>); none: the chain, or stdin when it is a pipe or file");
   tool.add_stream_output();
   tool.add_profile();
   tool.add_payload();
@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
     model::Profile profile = model::load_profile(tool.profile());
     model::select_payload(profile, tool.payload());
     const model::Model robot = model::build_model(profile);
+    tool.set_chain_joints(robot.joint_names());  // a bag's joints are matched to them by name
     if (chain || (tool.inputs().empty() && !stdin_is_a_stream())) {
       std::string text = model::describe_chain(robot, profile);
       if (!model::read_inertial_corrections(profile).empty())

@@ -21,7 +21,7 @@ using namespace momentum;
 int main(int argc, char** argv) {
   cli::Tool tool("mo-observe", "Estimate joint disturbance torques with a momentum observer.");
   tool.app().footer("\nExample:\n  mo-observe -p arm.json log.csv > observed.csv\n\nMore: man mo-observe");
-  tool.add_inputs("input stream (- or none: stdin)");
+  tool.add_stream_inputs("input stream (- or none: stdin)");
   tool.add_stream_output();
   tool.add_profile();
   tool.add_payload();
@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
     model::Profile profile = model::load_profile(tool.profile());
     model::select_payload(profile, tool.payload());
     const model::Model robot = model::build_model(profile);
+    tool.set_chain_joints(robot.joint_names());  // a bag's joints are matched to them by name
 
     observer::ObserveStreamOptions options;
     options.observer = observer::observer_options_from_profile(profile);

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (candump text, DBC, URDF to chain, CSV stream, binary stream,
-# robot profile) with clang and runs each from the captures and DBC files of tests/data/can, the
-# URDFs of tests/data and tests/cli (each prefixed with its "ROOT TIP" line), the CSV streams of
-# tests/data and tests/cli (and the same converted to binary, with a comment record), the
-# profiles of tests/data and tests/cli, plus the inputs that once failed
+# Builds the libFuzzer targets (candump text, DBC, URDF to chain, CSV stream, binary stream, ROS 2
+# bag in MCAP, robot profile) with clang and runs each from the captures and DBC files of
+# tests/data/can, the URDFs of tests/data and tests/cli (each prefixed with its "ROOT TIP" line),
+# the CSV streams of tests/data and tests/cli (and the same converted to binary, with a comment
+# record), the bags of tests/data/mcap (and the uncompressed one with its chunks' CRCs zeroed, so
+# that mutations reach the records inside), the profiles of tests/data and tests/cli, plus the
+# inputs that once failed
 # (tests/fuzz/regressions/<target>).
 #   tests/fuzz/run.sh [RUNS]      RUNS inputs per target (default 20000) with a fixed seed, so
 #                                 that CI is reproducible: the same tree gives the same verdict
@@ -40,7 +42,7 @@ model_sources=("$src"/lib/src/model/{model,collision,inertial_corrections,profil
 # The profile target reads the sections that the friction and detect stages own as well.
 section_sources=("$src"/lib/src/friction/friction.cpp "$src"/lib/src/detect/thresholds.cpp)
 # FUZZ_TARGETS="stream_csv profile" builds and runs only those.
-read -r -a targets <<< "${FUZZ_TARGETS:-candump dbc urdf stream_csv stream_binary profile}"
+read -r -a targets <<< "${FUZZ_TARGETS:-candump dbc urdf stream_csv stream_binary stream_mcap profile}"
 sources_of() {
   case $1 in
     urdf) printf '%s\n' "$src/tests/fuzz/urdf_fuzz.cpp" "${model_sources[@]}" "${common_sources[@]}" ;;
@@ -64,6 +66,7 @@ for target in "${targets[@]}"; do
   while read -r source; do objects+=("$(object_of "$source")"); done < <(sources_of "$target")
   libs=()
   [[ $target == urdf || $target == profile ]] && libs=(-lurdfdom_model -lconsole_bridge)
+  libs+=(-lzstd -llz4)  # the stream stage's MCAP chunks (every target has the stream sources)
   "$cxx" "${link_flags[@]}" "${objects[@]}" "${libs[@]}" -o "$work/fuzz_$target" ||
     { echo "fuzz: $target did not link" >&2; exit 1; }
 done
@@ -116,6 +119,21 @@ for path in files:
     if data:
         open(os.path.join(corpus, hashlib.sha1(data).hexdigest()), "wb").write(data)
 PY
+  elif [[ $target == stream_mcap ]]; then
+    cp "$src"/tests/data/mcap/*.mcap "$corpus"/
+    python3 - "$src/tests/data/mcap/uncompressed.mcap" "$corpus/uncompressed-no-crc.mcap" <<'PY'
+import struct, sys
+data = bytearray(open(sys.argv[1], "rb").read())
+at = 8  # after the magic: top-level records, opcode (1) and length (8) each
+while at + 9 <= len(data):
+    opcode, length = data[at], struct.unpack_from("<Q", data, at + 1)[0]
+    if opcode == 0x06:  # chunk: start, end, uncompressed_size (8 each), then its CRC
+        data[at + 9 + 24:at + 9 + 28] = b"\0\0\0\0"
+    if opcode == 0x02:
+        break
+    at += 9 + length
+open(sys.argv[2], "wb").write(data)
+PY
   elif [[ $target == profile ]]; then
     for profile in "$src"/tests/data/*.json "$src"/tests/data/*/profile.json "$src"/tests/cli/*/*/*.json; do
       head -c 4096 "$profile" > "$corpus/$(echo "$profile" | md5sum | cut -c1-16).json"
@@ -143,7 +161,7 @@ PY
   fi
   echo "fuzz: running $target ($what)"
   max_len=4096
-  [[ $target == urdf ]] && max_len=65536  # real URDFs are tens of kilobytes
+  [[ $target == urdf || $target == stream_mcap ]] && max_len=65536  # real URDFs and the bags: tens of kilobytes
   if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions="$src/tests/lsan.supp":print_suppressions=0 "./fuzz_$target" "${budget[@]}" -max_len=$max_len -timeout=10 \
         -print_final_stats=1 -artifact_prefix="$work/${target}-" "$corpus" > "$work/$target.log" 2>&1); then
     echo "fuzz: $target FAILED; see $work/$target.log and $work/${target}-*" >&2

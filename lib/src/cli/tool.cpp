@@ -26,6 +26,12 @@ void Tool::add_inputs(const std::string& description) {
   app_.add_option("inputs", inputs_, description)->type_name("FILE");
 }
 
+void Tool::add_stream_inputs(const std::string& description) {
+  add_inputs(description);
+  app_.add_option("--topic", topic_, "ROS 2 bag: the sensor_msgs/msg/JointState topic (default: the only one)")
+      ->type_name("NAME");
+}
+
 void Tool::add_stream_output() {
   app_.add_option("-o,--output", output_, "output file (default: stdout)")->type_name("FILE");
   app_.add_option("--output-format", output_format_, "csv or bin (default: the input's encoding)")
@@ -67,6 +73,8 @@ std::string Tool::provenance() const {
 std::unique_ptr<stream::Reader> Tool::open_input(const std::string& path, stream::ReaderOptions options) {
   options.strict = options.strict || strict_;
   options.rows_returned = &rows_returned_;
+  if (options.topic.empty()) options.topic = topic_;
+  if (options.joint_names.empty()) options.joint_names = chain_joints_;
   auto reader = stream::Reader::open(path, std::move(options));
   ++inputs_opened_;
   if (input_names_.size() < 3) input_names_.push_back(reader->name());
@@ -107,7 +115,9 @@ int Tool::finish_rows(int status) {
 
 std::unique_ptr<stream::Writer> Tool::open_output(stream::Reader& like) const {
   stream::WriterOptions options;
-  options.encoding = output_format_.empty() ? like.encoding() : stream::parse_encoding(output_format_);
+  // A bag is read, not written: its rows go out as CSV unless --output-format says bin.
+  const stream::Encoding input = like.encoding() == stream::Encoding::mcap ? stream::Encoding::csv : like.encoding();
+  options.encoding = output_format_.empty() ? input : stream::parse_encoding(output_format_);
   options.line_buffered = line_buffered_;
   auto writer = stream::Writer::open(output_, options);
   for (const auto& c : like.leading_comments()) writer->comment(c);

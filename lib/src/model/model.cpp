@@ -435,6 +435,12 @@ int Model::joint_index(const std::string& name) const {
   return -1;
 }
 
+std::vector<std::string> Model::joint_names() const {
+  std::vector<std::string> names;
+  for (const Joint& joint : joints) names.push_back(joint.name);
+  return names;
+}
+
 bool is_physical_inertia(const Eigen::Matrix3d& inertia, std::string* why) {
   auto reject = [&](const std::string& reason) {
     if (why) *why = reason;

@@ -17,7 +17,7 @@ Encoding parse_encoding(std::string_view name) {
 }
 
 std::string_view encoding_name(Encoding encoding) {
-  return encoding == Encoding::csv ? "csv" : "bin";
+  return encoding == Encoding::csv ? "csv" : encoding == Encoding::binary ? "bin" : "mcap";
 }
 
 std::string csv_comment_lines(std::string_view text) {

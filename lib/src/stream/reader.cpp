@@ -16,6 +16,8 @@
 #include "momentum/core/text.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/stream/mcap.hpp"
+#include "mcap_reader.hpp"
 
 static_assert(std::endian::native == std::endian::little,
               "the binary stream format is little-endian; add byte swapping for this host");
@@ -124,8 +126,8 @@ std::size_t Reader::require(std::string_view column) const {
 namespace {
 
 // Owns the descriptor and a growable window over the input. Memory is bounded by the longest
-// line (CSV) or record (binary), never by the length of the stream.
-class Input {
+// line (CSV) or record (binary, MCAP), never by the length of the stream.
+class Input final : public mcap::ByteSource {
  public:
   Input(int fd, bool owns, std::string name) : fd_(fd), owns_(owns), name_(std::move(name)) {
     buffer_.resize(1 << 20);
@@ -136,15 +138,13 @@ class Input {
   Input(const Input&) = delete;
   Input& operator=(const Input&) = delete;
 
-  std::function<void()>* before_read = nullptr;
-
-  const char* data() const { return buffer_.data() + begin_; }
-  std::size_t available() const { return end_ - begin_; }
-  void consume(std::size_t n) {
+  const char* data() const override { return buffer_.data() + begin_; }
+  std::size_t available() const override { return end_ - begin_; }
+  void consume(std::size_t n) override {
     begin_ += n;
     offset_ += n;
   }
-  std::uint64_t offset() const { return offset_; }
+  std::uint64_t offset() const override { return offset_; }
   bool eof() const { return eof_; }
 
   // Reads more bytes after the available ones; false at end of input.
@@ -175,7 +175,7 @@ class Input {
   }
 
   // Ensures at least n bytes are available; false if the input ends first.
-  bool want(std::size_t n) {
+  bool want(std::size_t n) override {
     while (available() < n)
       if (!fill()) return false;
     return true;
@@ -652,8 +652,12 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, ReaderOptions opti
   std::unique_ptr<Reader> reader;
   if (!input->want(1)) throw Error(name + ": empty input");
   if (static_cast<unsigned char>(input->data()[0]) == static_cast<unsigned char>(kBinaryMagic[0])) {
-    if (!options.names.empty()) throw Error(name + ": --names applies to CSV input, not binary");
-    reader = std::make_unique<BinaryReader>(std::move(input), name, options);
+    // Both magics start with 0x89 'M'; "MCAP" tells a bag from a binary stream ("MOLOG").
+    const bool bag = input->want(5) && std::memcmp(input->data(), mcap::kMagic, 5) == 0;
+    if (!options.names.empty()) throw Error(name + ": --names applies to CSV input, not " + (bag ? "MCAP" : "binary"));
+    const bool regular = !from_stdin && ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+    if (bag) reader = detail::open_mcap(std::move(input), name, options, regular ? path : std::string());
+    else reader = std::make_unique<BinaryReader>(std::move(input), name, options);
   } else {
     reader = std::make_unique<CsvReader>(std::move(input), name, options);
   }

@@ -24,6 +24,7 @@ void put_string(std::vector<char>& out, std::string_view s) {
 }  // namespace
 
 std::unique_ptr<Writer> Writer::open(const std::string& path, WriterOptions options) {
+  if (options.encoding == Encoding::mcap) throw Error("streams are written as csv or bin, not mcap");
   // The output first: a path that cannot be opened throws before there is a Writer to close.
   auto out = std::make_unique<core::OutputFile>(path);
   std::unique_ptr<Writer> writer(new Writer());

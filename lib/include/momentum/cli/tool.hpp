@@ -47,6 +47,13 @@ class Tool {
 
   // Positional input files; none or "-" means stdin.
   void add_inputs(const std::string& description = "input streams (- or none: stdin)");
+  // add_inputs, and the options of every tool that reads sample streams: --topic NAME, the
+  // sensor_msgs/msg/JointState topic of a ROS 2 bag (stream::ReaderOptions::topic).
+  void add_stream_inputs(const std::string& description = "input streams (- or none: stdin)");
+  // The joints of the profile's chain, root to tip: open_input matches a bag's joints to them
+  // by name (stream::ReaderOptions::joint_names). Tools with a profile call it before opening
+  // their inputs.
+  void set_chain_joints(std::vector<std::string> names) { chain_joints_ = std::move(names); }
   // -o FILE, --output-format csv|bin, --line-buffered, --strict: for tools that read and
   // write sample streams. "-o -" is standard output.
   void add_stream_output();
@@ -101,7 +108,8 @@ class Tool {
   // One provenance comment for output streams: tool name, version and the arguments.
   std::string provenance() const;
 
-  // Opens one input with the tool's --strict setting; its rows count for the no-rows policy.
+  // Opens one input with the tool's --strict setting, --topic and chain joints (when `options`
+  // has none of its own); its rows count for the no-rows policy.
   std::unique_ptr<stream::Reader> open_input(const std::string& path, stream::ReaderOptions options = {});
   // Rows the inputs opened by open_input have returned so far, and rows skipped (every kind).
   std::uint64_t rows_returned() const { return rows_returned_; }
@@ -125,6 +133,8 @@ class Tool {
   std::string output_format_;
   std::string profile_;
   std::string payload_;
+  std::string topic_;
+  std::vector<std::string> chain_joints_;
   std::uint64_t seed_ = 1;
   bool quiet_ = false;
   bool strict_ = false;

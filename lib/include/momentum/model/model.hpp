@@ -93,6 +93,8 @@ struct Model {
   double total_mass() const;
   // Index of the joint with this name, or -1.
   int joint_index(const std::string& name) const;
+  // The joints' URDF names, root to tip (nq names).
+  std::vector<std::string> joint_names() const;
 };
 
 // Builds the chain of profile.root .. profile.tip from profile.urdf. Throws momentum::Error

@@ -1,5 +1,6 @@
 #pragma once
-// The two encodings of a sample stream (see mo-log(5)): CSV text and the binary format.
+// The encodings of a sample stream (see mo-log(5)): CSV text and the binary format, which the
+// suite reads and writes, and ROS 2 bags in MCAP, which it reads only.
 
 #include <cstdint>
 #include <optional>
@@ -11,9 +12,10 @@
 
 namespace momentum::stream {
 
-enum class Encoding { csv, binary };
+enum class Encoding { csv, binary, mcap };
 
-// "csv" or "bin"; throws momentum::Error for anything else.
+// "csv" or "bin" (the encodings a stream is written in); throws momentum::Error for anything
+// else.
 Encoding parse_encoding(std::string_view name);
 std::string_view encoding_name(Encoding encoding);
 

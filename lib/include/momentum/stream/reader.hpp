@@ -1,6 +1,6 @@
 #pragma once
-// Reads a sample stream (CSV or binary, detected from the first bytes) row by row in constant
-// memory, from a file or from stdin ("-"). Reading uses read(2) on the descriptor, so a row that
+// Reads a sample stream (CSV, binary, or a ROS 2 bag in MCAP, detected from the first bytes) row
+// by row in constant memory, from a file or from stdin ("-"). Reading uses read(2) on the descriptor, so a row that
 // arrives on a pipe is returned as soon as its line is complete.
 
 #include <cstdint>
@@ -35,13 +35,23 @@ struct ReaderOptions {
   bool time_order = true;
   // When set, incremented for every row next() returns (a tool's count over its inputs).
   std::uint64_t* rows_returned = nullptr;
+  // For a ROS 2 bag (MCAP): the topic of sensor_msgs/msg/JointState messages to read. Empty:
+  // the bag's only JointState topic (an error listing them when it has several).
+  std::string topic;
+  // For a ROS 2 bag: the joints of the profile's chain, root to tip. The columns' joint j is the
+  // message's joint of this name, whatever the message's order; a chain joint missing from a
+  // message is an error (first message) or a bad row (later ones), and joints not in the chain
+  // are left out with one warning. Empty: the joints and order of the first message.
+  std::vector<std::string> joint_names;
 };
 
 class Reader {
  public:
   // Opens `path` ("-" or "" for stdin) and reads up to the end of the header. Throws
   // momentum::Error (`file: message`) when the file cannot be opened, is empty, or its header is
-  // unusable (no header, duplicate or empty column name, wrong binary magic or version).
+  // unusable (no header, duplicate or empty column name, wrong binary magic or version). A ROS 2
+  // bag (MCAP magic) is read up to its first usable JointState message, which fixes the columns
+  // (t, q<j>, dq<j>, tau_m<j>: mo-log(5)); see the MCAP reader's errors in mcap_reader.hpp.
   static std::unique_ptr<Reader> open(const std::string& path, ReaderOptions options = {});
   virtual ~Reader() = default;
 
@@ -74,11 +84,13 @@ class Reader {
   // early (a signal), so that no row it already read is lost.
   void stop();
 
-  // Location of the row last returned: `file:line` for CSV, `file: byte N` for binary.
+  // Location of the row last returned: `file:line` for CSV, `file: byte N` for binary, `file:
+  // byte N` or `file: byte N, chunk record K` (its record, or its chunk's) for MCAP.
   std::string where() const { return location(position_); }
   // The location of a row at `position` (a line number or a byte offset).
   virtual std::string location(std::uint64_t position) const = 0;
-  // Line number (CSV) or byte offset (binary) of the row last returned.
+  // Line number (CSV), byte offset (binary) or packed record position (MCAP) of the row last
+  // returned; positions grow through the input.
   std::uint64_t position() const { return position_; }
 
   // Rows parsed, and rows skipped (bad rows and rows dropped for their time).

@@ -27,7 +27,8 @@ class Writer {
  public:
   // Opens `path` ("-" or "" for stdout; a file is created or truncated) with core::OutputFile.
   // Throws momentum::Error naming the path when it cannot be opened (a missing folder, a
-  // folder, a read-only file, a symlink loop) or is an input of the run.
+  // folder, a read-only file, a symlink loop) or is an input of the run, and for
+  // Encoding::mcap (bags are read only).
   static std::unique_ptr<Writer> open(const std::string& path, WriterOptions options = {});
   ~Writer();
   Writer(const Writer&) = delete;
