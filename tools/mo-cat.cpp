@@ -17,7 +17,7 @@ using namespace momentum;
 int main(int argc, char** argv) {
   cli::Tool tool("mo-cat", "Convert, select, scale, mend and describe sample streams.");
   tool.app().footer("\nExample:\n  mo-cat --stats arm.csv\n\nMore: man mo-cat");
-  tool.add_inputs("input streams, concatenated (same columns); - or none: stdin");
+  tool.add_stream_inputs("input streams, concatenated (same columns); - or none: stdin");
   tool.add_stream_output();
   stream::CatOptions o;
   std::string names, stats_format = "text";

@@ -16,7 +16,7 @@ using namespace momentum;
 int main(int argc, char** argv) {
   cli::Tool tool("mo-dynfit", "Identify corrections to the URDF's inertial parameters from collision-free logs.");
   tool.app().footer("\nExample:\n  mo-dynfit -p arm.json --torque-held --update log.csv\n\nMore: man mo-dynfit");
-  tool.add_inputs("streams of collision-free motion (t, q<j>, dq<j>, tau_m<j> or i<j>); - or none: stdin");
+  tool.add_stream_inputs("streams of collision-free motion (t, q<j>, dq<j>, tau_m<j> or i<j>); - or none: stdin");
   tool.add_profile(true);
   tool.add_strict();
   tool.add_payload();

@@ -31,7 +31,7 @@ bool stdin_is_a_stream() {
 int main(int argc, char** argv) {
   cli::Tool tool("mo-model", "Show the chain a robot profile builds, and its dynamics along a stream.");
   tool.app().footer("\nExample:\n  mo-model -p arm.json\n\nMore: man mo-model");
-  tool.add_inputs("input stream with q<j> (dq<j>, ddq<j>); none: the chain, or stdin when it is a pipe or file");
+  tool.add_stream_inputs("input stream with q<j> (dq<j>, ddq<j>); none: the chain, or stdin when it is a pipe or file");
   tool.add_stream_output();
   tool.add_profile();
   tool.add_payload();

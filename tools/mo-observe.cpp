@@ -21,7 +21,7 @@ using namespace momentum;
 int main(int argc, char** argv) {
   cli::Tool tool("mo-observe", "Estimate joint disturbance torques with a momentum observer.");
   tool.app().footer("\nExample:\n  mo-observe -p arm.json log.csv > observed.csv\n\nMore: man mo-observe");
-  tool.add_inputs("input stream (- or none: stdin)");
+  tool.add_stream_inputs("input stream (- or none: stdin)");
   tool.add_stream_output();
   tool.add_profile();
   tool.add_payload();

@@ -47,6 +47,12 @@ class Tool {
 
   // Positional input files; none or "-" means stdin.
   void add_inputs(const std::string& description = "input streams (- or none: stdin)");
+  // Positional input streams (add_inputs), and the options every tool that reads sample
+  // streams shares, which open_input applies: --separator (CSV: auto, comma, semicolon, tab,
+  // space), --rename OLD=NEW,... (repeatable; ranges, _ to drop, :unit and *factor; see
+  // stream::parse_renames) and --preset NAME|FILE (a vendor's column mapping; a --rename of
+  // the same column wins over the preset's).
+  void add_stream_inputs(const std::string& description = "input streams (- or none: stdin)");
   // -o FILE, --output-format csv|bin, --line-buffered, --strict: for tools that read and
   // write sample streams. "-o -" is standard output.
   void add_stream_output();
@@ -101,7 +107,9 @@ class Tool {
   // One provenance comment for output streams: tool name, version and the arguments.
   std::string provenance() const;
 
-  // Opens one input with the tool's --strict setting; its rows count for the no-rows policy.
+  // Opens one input with the tool's --strict setting (and --separator, --rename, --preset when
+  // the tool has them and `options` sets none of its own); its rows count for the no-rows
+  // policy.
   std::unique_ptr<stream::Reader> open_input(const std::string& path, stream::ReaderOptions options = {});
   // Rows the inputs opened by open_input have returned so far, and rows skipped (every kind).
   std::uint64_t rows_returned() const { return rows_returned_; }
@@ -130,6 +138,14 @@ class Tool {
   bool strict_ = false;
   bool line_buffered_ = false;
   bool strict_added_ = false;
+  // --separator, --rename, --preset (add_stream_inputs), and the mappings they make.
+  std::string separator_option_;
+  std::vector<std::string> rename_options_;
+  std::string preset_option_;
+  stream::Separator separator_ = stream::Separator::detect;
+  std::vector<stream::ColumnRename> renames_;
+  // Reads the options above after parsing; throws UsageError for a bad one.
+  void prepare_stream_inputs();
   // The rows policy.
   std::optional<int> skipped_rows_status_ = kFailure;
   bool check_no_rows_ = true;
