@@ -199,6 +199,8 @@ TEST(Rename, PresetFilesAndUnknownNames) {
   EXPECT_FALSE(preset.renames[0].optional);
   EXPECT_TRUE(preset.renames[2].optional);
   EXPECT_EQ(preset.renames[0].scale, 1e-3);
+  // A path that is no preset file (a device without end) stops at 1 MiB.
+  EXPECT_EQ(error_of([&] { ms::load_preset("/dev/zero"); }), "--preset /dev/zero: larger than 1 MiB, not a preset file");
   EXPECT_EQ(error_of([&] { ms::load_preset("no-such-preset"); }),
             "--preset: 'no-such-preset' is no built-in preset (ur-rtde) and no preset file that can be opened");
 }

@@ -8,7 +8,6 @@
 #include <iterator>
 #include <numbers>
 #include <optional>
-#include <sstream>
 #include <unordered_map>
 #include <utility>
 
@@ -201,9 +200,14 @@ ColumnPreset load_preset(const std::string& name_or_path) {
     throw Error("--preset: '" + printable(name_or_path) + "' is no built-in preset (" + names +
                 ") and no preset file that can be opened");
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_preset(text.str(), name_or_path);
+  // A preset is a few lines: a bound keeps a wrong path (a device, a log) from filling memory.
+  constexpr std::size_t kMaxPresetBytes = std::size_t{1} << 20;
+  std::string text(kMaxPresetBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxPresetBytes)
+    throw Error("--preset " + printable(name_or_path) + ": larger than 1 MiB, not a preset file");
+  return parse_preset(text, name_or_path);
 }
 
 std::vector<std::string> presets_matching(const std::vector<std::string>& header) {
