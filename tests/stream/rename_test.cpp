@@ -189,6 +189,26 @@ TEST(Rename, APresetsOptionalColumnsMayBeAbsentButNotHalfThere) {
             std::string::npos);
 }
 
+TEST(Rename, BuiltinPresetsAreTheInstalledFiles) {
+  // The compiled-in copy of each preset reads as the file installed under share/.
+  for (const std::string& name : ms::builtin_preset_names()) {
+    const auto builtin = ms::load_preset(name);
+    const auto file = ms::load_preset(std::string(MOMENTUM_SOURCE_DIR) + "/share/momentum/presets/" + name + ".preset");
+    ASSERT_EQ(builtin.renames.size(), file.renames.size()) << name;
+    for (std::size_t k = 0; k < builtin.renames.size(); ++k) {
+      const auto& a = builtin.renames[k];
+      const auto& b = file.renames[k];
+      EXPECT_EQ(a.from, b.from);
+      EXPECT_EQ(a.to, b.to);
+      EXPECT_EQ(a.scale, b.scale);
+      EXPECT_EQ(a.optional, b.optional);
+      EXPECT_EQ(a.group, b.group);
+      EXPECT_EQ(a.origin.substr(a.origin.find(" line ")), b.origin.substr(b.origin.find(" line "))) << a.origin;
+    }
+  }
+  EXPECT_EQ(ms::builtin_preset_names(), (std::vector<std::string>{"ur-rtde"}));
+}
+
 TEST(Rename, PresetFilesAndUnknownNames) {
   const std::string path = temp_path("mine.preset");
   write_file(path, "# a comment\nTime=t:ms\n\noptional Pos_1..2=q1..2:deg  # trailing comment\nbad line\n");

@@ -22,13 +22,34 @@ namespace {
 using core::printable;
 using core::trim;
 
-// The built-in presets, share/momentum/presets/NAME.preset, compiled in at configure time.
+// The built-in presets: the text of share/momentum/presets/NAME.preset, which is installed for
+// users to copy and adapt. Kept here as well so that every build (CMake's, the fuzz script's,
+// a Python extension's) has them without a generated file; tests/stream/rename_test.cpp holds
+// the two copies equal.
 struct BuiltinPreset {
   const char* name;
   const char* text;
 };
 constexpr BuiltinPreset kBuiltinPresets[] = {
-#include "momentum/stream/builtin_presets.inc"
+    {"ur-rtde", R"momentum_preset(# Universal Robots RTDE recordings, as UR's RTDE client writes them (examples/record.py of
+# UniversalRobots/RTDE_Python_Client_Library: one header line, fields separated by spaces, a
+# vector output VAR written as VAR_0 .. VAR_5 for joints 1..6 from the base). See
+# momentum-recipes(7). One mapping per line, as in --rename; "optional" maps only when the
+# recording has those columns. Columns not named here are passed through as they are.
+
+# Seconds since the controller started.
+timestamp=t
+# Joint positions (rad) and velocities (rad/s) measured by the joint encoders.
+actual_q_0..5=q1..6
+actual_qd_0..5=dq1..6
+# Motor currents (A): the observer's torque is the profile's k_i times these.
+actual_current_0..5=i1..6
+# The controller's own torque signals (Nm), kept beside the currents under names no tool takes
+# for the motor torque tau_m: the measured currents converted to joint torque by the controller
+# (PolyScope 5.23 and 10.11 on), and the torque its model asks for along the target motion.
+optional actual_current_as_torque_0..5=tau_ctrl1..6
+optional target_moment_0..5=tau_target1..6
+)momentum_preset"},
 };
 
 bool all_digits(std::string_view text) {
