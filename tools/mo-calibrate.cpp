@@ -14,7 +14,7 @@ using namespace momentum;
 int main(int argc, char** argv) {
   cli::Tool tool("mo-calibrate", "Collision thresholds per joint from collision-free motion, into the profile.");
   tool.app().footer("\nExample:\n  mo-observe -p arm.json day.bin | mo-calibrate -p arm.json\n\nMore: man mo-calibrate");
-  tool.add_inputs("streams of collision-free motion with mu<j> and/or r<j> (- or none: stdin)");
+  tool.add_stream_inputs("streams of collision-free motion with mu<j> and/or r<j> (- or none: stdin)");
   tool.add_profile(/*required=*/false);
   std::string output, signals_option, rule = "rate";
   double margin = 0, max_rise = 0;

@@ -32,7 +32,7 @@ std::string signal_name(int number) {
 int main(int argc, char** argv) {
   cli::Tool tool("mo-detect", "Collision events from residuals; exit status 1 when any (0 none, 2 error).");
   tool.app().footer("\nExample:\n  mo-observe -p arm.json log.bin | mo-detect -p arm.json > events.csv\n\nMore: man mo-detect");
-  tool.add_inputs("input stream (- or none: stdin)");
+  tool.add_stream_inputs("input stream (- or none: stdin)");
   tool.add_stream_output();
   tool.add_profile(/*required=*/false);
   std::string signal_option, threshold_list;

@@ -17,7 +17,7 @@ using namespace momentum;
 int main(int argc, char** argv) {
   cli::Tool tool("mo-lugre-fit", "Identify joint friction from the observer's residual of collision-free motion.");
   tool.app().footer("\nExample:\n  mo-lugre-fit -p arm.json -o fitted.json observed.csv\n\nMore: man mo-lugre-fit");
-  tool.add_inputs("observed streams (t, dq<j>, r<j>) of collision-free motion; - or none: stdin");
+  tool.add_stream_inputs("observed streams (t, dq<j>, r<j>) of collision-free motion; - or none: stdin");
   tool.add_profile(true);
   tool.add_strict();
   tool.add_seed();

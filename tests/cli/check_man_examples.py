@@ -5,7 +5,10 @@ usage: check_man_examples.py PAGE.scd BUILT_PAGE
 
 1. A command shown in a tab-indented paragraph is filled by man (wrapped, even hyphenated) and
    fails when pasted: commands must be in literal blocks (```).
-2. Rendered at 80 columns (groff -man -Tutf8 -rLL=80n, as man does with MANWIDTH=80), no line
+2. scdoc takes a backslash as an escape, also in a literal block: a command's continuation
+   "\\" at the end of a line vanishes from the page (the pasted command then stops at that
+   line), and "\\n" in a printf shows as "n". A literal block writes a backslash as two.
+3. Rendered at 80 columns (groff -man -Tutf8 -rLL=80n, as man does with MANWIDTH=80), no line
    may be wider than 80 characters: a long literal line runs past the terminal's edge and is
    wrapped by it. Exempt: sample outputs a tool really prints wider (listed below by their
    first words); the commands that print them are still checked.
@@ -28,6 +31,8 @@ def main():
     for number, line in enumerate(open(source, encoding="utf-8").read().split("\n"), 1):
         if line.strip().startswith("```"):
             literal = not literal
+        elif literal and "\\" in line.replace("\\\\", ""):
+            problems.append(f"{source}:{number}: a single backslash in a literal block vanishes (write two): {line.strip()}")
         elif not literal and previous.strip() == "" and COMMAND.match(line):
             problems.append(f"{source}:{number}: a command in a filled paragraph (put it in a ``` block): {line.strip()}")
         previous = line

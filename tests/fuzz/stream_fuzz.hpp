@@ -10,7 +10,9 @@
 //     than the kept row before it, a row marked clock_step is not, and the policy's summary
 //     counts the rows it kept;
 //   - what was read, written again by stream::Writer as binary and as CSV, reads back as the
-//     same stream: the same comments, column names and values (bit for bit, NaN as NaN).
+//     same stream: the same comments, column names and values (bit for bit, NaN as NaN);
+//   - read with renames (--rename: the first column dropped, the others renamed and doubled),
+//     the same rows come back, without the first column and each value times 2.
 #pragma once
 
 #include <fcntl.h>
@@ -193,6 +195,30 @@ inline void check_time_marks(const std::string& path) {
   }
 }
 
+// Renaming as the stream is read (ReaderOptions::renames): with the first column dropped and
+// every other renamed to c<k> and doubled, the rows are the plain read's, less its first
+// column, times 2 (the same IEEE product either way, so equal bit for bit).
+inline void check_renamed(const std::string& path, const Stream& plain) {
+  ReaderOptions options;
+  options.time_order = false;
+  for (std::size_t k = 0; k < plain.columns.size(); ++k)
+    options.renames.push_back({plain.columns[k], k == 0 ? "_" : "c" + std::to_string(k), k == 0 ? 1.0 : 2.0, false,
+                               "--rename", k});
+  Stream renamed;
+  const bool ok = read_stream(path, options, renamed);
+  check(ok == (plain.columns.size() > 1));  // dropping the only column is refused
+  if (!ok) return;
+  check(renamed.columns.size() + 1 == plain.columns.size());
+  check(renamed.items.size() == plain.items.size());
+  for (std::size_t i = 0; i < plain.items.size(); ++i) {
+    const Item& a = plain.items[i];
+    const Item& b = renamed.items[i];
+    check(a.is_comment == b.is_comment);
+    if (a.is_comment) continue;
+    for (std::size_t k = 1; k < a.values.size(); ++k) check(same_value(a.values[k] * 2.0, b.values[k - 1]));
+  }
+}
+
 // The whole check on one input.
 inline void run_one(std::string_view bytes) {
   static const bool quiet = [] {
@@ -217,6 +243,7 @@ inline void run_one(std::string_view bytes) {
   if (strict_ok) check(same_stream(lenient, strict_read));
 
   check_time_marks(input);
+  check_renamed(input, lenient);
 
   const std::string copy = scratch("copy");
   write_stream(lenient, copy, Encoding::binary);

@@ -145,7 +145,7 @@ TEST(Stream, BadRowsAreReportedWithTheirLineAndSkipped) {
   ASSERT_EQ(warnings.messages.size(), 3u);
   EXPECT_EQ(warnings.messages[0], path + ":4: bad number 'x' in column 'q1'");
   EXPECT_EQ(warnings.messages[1], path + ":5: expected 2 fields, got 1");
-  EXPECT_EQ(warnings.messages[2], path + ":6: expected 2 fields, got more");
+  EXPECT_EQ(warnings.messages[2], path + ":6: expected 2 fields, got 3");
 }
 
 // rows_skipped() runs ahead of the rows returned while the time-order policy holds rows (at

@@ -28,8 +28,61 @@ void Tool::add_inputs(const std::string& description) {
 
 void Tool::add_stream_inputs(const std::string& description) {
   add_inputs(description);
+  app_.add_option("--separator", separator_option_,
+                  "CSV field separator: auto (default: from the header), comma, semicolon, tab or space")
+      ->type_name("SEP");
+  app_.add_option("--rename", rename_options_,
+                  "rename columns of the header: OLD=NEW, ranges a_0..5=q1..6, NEW _ drops, :deg or *F scales (repeatable)")
+      ->type_name("LIST")
+      ->allow_extra_args(false);
+  std::string presets;
+  for (const auto& name : stream::builtin_preset_names()) presets += (presets.empty() ? "" : ", ") + name;
+  app_.add_option("--preset", preset_option_, "a vendor recording's column mapping: " + presets + ", or a preset file")
+      ->type_name("NAME");
   app_.add_option("--topic", topic_, "ROS 2 bag: the sensor_msgs/msg/JointState topic (default: the only one)")
       ->type_name("NAME");
+}
+
+void Tool::prepare_stream_inputs() {
+  try {
+    if (!separator_option_.empty()) separator_ = stream::parse_separator(separator_option_);
+  } catch (const Error& e) {
+    throw UsageError(std::string("--separator: ") + e.what());
+  }
+  std::vector<stream::ColumnRename> renames;
+  std::size_t group = 0;
+  try {
+    for (const auto& text : rename_options_) {
+      auto more = stream::parse_renames(text, "--rename", group);
+      for (const auto& r : more) {
+        for (const auto& earlier : renames)
+          if (earlier.from == r.from)
+            throw Error(r.origin + ": column '" + core::printable(r.from) + "' is mapped twice (also by " + earlier.origin + ")");
+        group = std::max(group, r.group + 1);
+      }
+      renames.insert(renames.end(), more.begin(), more.end());
+    }
+  } catch (const Error& e) {
+    throw UsageError(e.what());
+  }
+  if (!preset_option_.empty()) {
+    stream::ColumnPreset preset;
+    try {
+      preset = stream::load_preset(preset_option_);
+    } catch (const Error& e) {
+      throw UsageError(e.what());
+    }
+    // The preset first; a --rename of one of its columns replaces the preset's mapping.
+    std::vector<stream::ColumnRename> merged;
+    for (auto& r : preset.renames) {
+      r.group += group;
+      const bool overridden = std::any_of(renames.begin(), renames.end(), [&](const auto& o) { return o.from == r.from; });
+      if (!overridden) merged.push_back(std::move(r));
+    }
+    merged.insert(merged.end(), renames.begin(), renames.end());
+    renames = std::move(merged);
+  }
+  renames_ = std::move(renames);
 }
 
 void Tool::add_stream_output() {
@@ -75,6 +128,8 @@ std::unique_ptr<stream::Reader> Tool::open_input(const std::string& path, stream
   options.rows_returned = &rows_returned_;
   if (options.topic.empty()) options.topic = topic_;
   if (options.joint_names.empty()) options.joint_names = chain_joints_;
+  if (options.separator == stream::Separator::detect) options.separator = separator_;
+  if (options.renames.empty()) options.renames = renames_;
   auto reader = stream::Reader::open(path, std::move(options));
   ++inputs_opened_;
   if (input_names_.size() < 3) input_names_.push_back(reader->name());
@@ -172,6 +227,12 @@ int Tool::run_body(int argc, char** argv, const std::function<int()>& body) {
     std::string what = e.what();
     if (!what.empty()) what[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(what[0])));
     std::cerr << name_ << ": error: " << what << " (see " << name_ << " --help)\n";
+    return kUsage;
+  }
+  try {
+    prepare_stream_inputs();
+  } catch (const UsageError& e) {
+    std::cerr << name_ << ": error: " << e.what() << " (see " << name_ << " --help)\n";
     return kUsage;
   }
   // The inputs named, and standard input when read, are files no output of this run may

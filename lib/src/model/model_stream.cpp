@@ -27,6 +27,8 @@ void append(std::vector<std::string>& columns, const std::vector<std::string>& m
 ModelStream::ModelStream(stream::Reader& in, const Model& model, ModelStreamOptions options)
     : in_(in), model_(model), options_(options) {
   const int n = model.nq;
+  if (const std::string zero = stream::zero_based_joint_message(in.columns()); !zero.empty())
+    throw Error(in.name() + ": " + zero);
   const std::size_t joints = stream::count_joint_columns(in.columns(), "q");
   if (joints != static_cast<std::size_t>(n)) {
     throw Error(in.name() + ": the stream has " + std::to_string(joints) +

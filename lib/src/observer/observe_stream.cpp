@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "momentum/core/number.hpp"
+#include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 
@@ -41,6 +42,8 @@ MomentumObserver make_observer(stream::Reader& in, const model::Model& model,
   // Joint columns: q1..qN, dq1..dqN, and tau_m<j> or i<j>; N must be the chain's nq.
   // The stream's joint count is the largest j among q<j>, dq<j>, tau_m<j>, i<j>; columns
   // missing below it are reported by name afterwards.
+  // A stream numbered from 0 would otherwise read as one joint short, or lose joint 0.
+  if (const std::string zero = stream::zero_based_joint_message(in.columns()); !zero.empty()) fail(zero);
   int found = 0;
   for (const char* prefix : {"q", "dq", "tau_m", "i"}) found = std::max(found, largest_joint_column(in, prefix));
   if (found == 0) in.require("q1");

@@ -12,6 +12,7 @@
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
+#include "momentum/stream/rename.hpp"
 
 namespace momentum::stream {
 
@@ -25,10 +26,18 @@ std::string format_stats(const StreamStats& stats) {
   auto s = stats.summary();
   put("rows        %" PRIu64 "\n", s.rows);
   put("columns     %zu\n", s.columns);
+  // A recording not yet in the suite's names (no column t): what its columns are, and the
+  // built-in preset that reads it, if one does.
+  if (s.time_column != "t") {
+    text += "names       " + compact_column_list(stats.columns()) + "\n";
+    for (const auto& preset : presets_matching(stats.columns()))
+      text += "preset      " + preset + " (read it with --preset " + preset + ")\n";
+  }
   if (s.has_time) {
     auto digits = [](double x, int n) { return core::significant(x, n); };
     text += "time        " + digits(s.t_first, 9) + " .. " + digits(s.t_last, 9) + " s (span " +
-            digits(s.t_last - s.t_first, 9) + " s)\n";
+            digits(s.t_last - s.t_first, 9) + " s" +
+            (s.time_column != "t" ? ", column '" + s.time_column + "'" : std::string()) + ")\n";
     text += "dt          min " + digits(s.dt_min, 6) + "  median " + digits(s.dt_median, 6) + "  max " +
             digits(s.dt_max, 6) + " s\n";
     auto anomaly = [&](const char* label, const StreamStats::Anomaly& a) {
@@ -44,7 +53,7 @@ std::string format_stats(const StreamStats& stats) {
     anomaly("duplicates", s.duplicates);
     anomaly("frozen", s.frozen);
   } else {
-    text += "time        no column 't'\n";
+    text += "time        no column 't' (nor 'timestamp' or 'time')\n";
   }
   text += "nan        ";
   bool any = false;

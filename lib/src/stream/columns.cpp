@@ -63,6 +63,8 @@ std::string missing_column_message(const std::vector<std::string>& columns, std:
   if (columns.size() == 1 && columns.front() != name)
     text += " (the header is one column, '" + core::printable(columns.front()) +
             "': columns are separated by commas, semicolons, tabs or blanks)";
+  else if (const std::string zero = zero_based_joint_message(columns); !zero.empty())
+    text += " (" + zero + ")";
   return text;
 }
 
@@ -76,6 +78,45 @@ std::vector<std::size_t> column_indices(const std::vector<std::string>& columns,
     out.push_back(static_cast<std::size_t>(it - columns.begin()));
   }
   return out;
+}
+
+namespace {
+
+bool has_column(const std::vector<std::string>& columns, const std::string& name) {
+  return std::find(columns.begin(), columns.end(), name) != columns.end();
+}
+
+// The joint-column kinds a stream may number from 0, and how many from 0 each has.
+std::vector<std::pair<std::string, std::size_t>> zero_based_runs(const std::vector<std::string>& columns) {
+  std::vector<std::pair<std::string, std::size_t>> runs;
+  for (const char* prefix : {"q", "dq", "ddq", "i", "tau_m"}) {
+    std::size_t n = 0;
+    while (n < kMaxListedColumns && has_column(columns, prefix + std::to_string(n))) ++n;
+    if (n > 0) runs.emplace_back(prefix, n);
+  }
+  return runs;
+}
+
+}  // namespace
+
+std::string zero_based_joint_rename(const std::vector<std::string>& columns) {
+  std::string text;
+  for (const auto& [prefix, n] : zero_based_runs(columns)) {
+    text += text.empty() ? "" : ",";
+    text += n == 1 ? prefix + "0=" + prefix + "1"
+                   : prefix + "0.." + std::to_string(n - 1) + "=" + prefix + "1.." + std::to_string(n);
+  }
+  return text;
+}
+
+std::string zero_based_joint_message(const std::vector<std::string>& columns) {
+  const auto runs = zero_based_runs(columns);
+  if (runs.empty()) return {};
+  std::string seen;
+  for (const auto& [prefix, n] : runs)
+    seen += (seen.empty() ? "" : ", ") + prefix + "0" + (n > 1 ? ".." + std::to_string(n - 1) : "");
+  return "the stream's joint columns are numbered from 0 (" + seen +
+         ") where the suite numbers joints from 1: read it with --rename " + zero_based_joint_rename(columns);
 }
 
 std::size_t count_joint_columns(const std::vector<std::string>& columns, std::string_view prefix) {

@@ -82,7 +82,7 @@ void Reader::stop() {
 
 const double* Reader::next() {
   if (!time_order_) {
-    const double* row = ended_ ? nullptr : read_row();
+    const double* row = ended_ ? nullptr : mapped(read_row());
     position_ = raw_position_;
     if (row && rows_returned_) ++*rows_returned_;
     settle_skips(row == nullptr);
@@ -100,7 +100,7 @@ const double* Reader::next() {
       settle_skips(true);
       return nullptr;
     }
-    const double* raw = read_row();
+    const double* raw = mapped(read_row());
     if (raw) {
       last_good_position_ = raw_position_;
       have_good_ = true;
@@ -110,6 +110,36 @@ const double* Reader::next() {
       time_order_->finish();
     }
   }
+}
+
+void Reader::start_renames(const std::vector<ColumnRename>& renames) {
+  if (renames.empty()) return;
+  const RenamedHeader renamed = apply_renames(columns_, renames, name_);
+  std::vector<std::string> columns;
+  for (std::size_t i = 0; i < renamed.names.size(); ++i) {
+    if (renamed.names[i] == "_") continue;
+    columns.push_back(renamed.names[i]);
+    mapped_from_.push_back(i);
+    mapped_scale_.push_back(renamed.scales[i]);
+  }
+  if (columns.empty()) throw Error(name_ + ": " + renames.front().origin + ": every column is dropped");
+  columns_ = std::move(columns);
+  mapped_row_.resize(columns_.size());
+}
+
+const double* Reader::mapped(const double* raw) {
+  if (!raw || mapped_from_.empty()) return raw;
+  for (std::size_t i = 0; i < mapped_from_.size(); ++i) mapped_row_[i] = raw[mapped_from_[i]] * mapped_scale_[i];
+  return mapped_row_.data();
+}
+
+Separator parse_separator(std::string_view name) {
+  if (name == "auto" || name == "detect") return Separator::detect;
+  if (name == "comma" || name == ",") return Separator::comma;
+  if (name == "semicolon" || name == ";") return Separator::semicolon;
+  if (name == "tab" || name == "\\t" || name == "\t") return Separator::tab;
+  if (name == "space" || name == "blanks" || name == "whitespace" || name == " ") return Separator::blanks;
+  throw Error("unknown separator '" + core::printable(name) + "' (auto, comma, semicolon, tab or space)");
 }
 
 std::optional<std::size_t> Reader::find(std::string_view column) const {
@@ -217,7 +247,7 @@ struct Field {
 };
 
 // How the fields of a line are separated: one character, or runs of blanks.
-struct Separator {
+struct FieldSeparator {
   char delimiter = ',';
   bool blanks = false;  // runs of spaces and tabs; blanks at either end ignored
 };
@@ -225,7 +255,7 @@ struct Separator {
 // The separator of a header (or, with --names, of the first row): the first of comma,
 // semicolon and tab that occurs outside quotes, else runs of blanks when the line has some
 // between fields, else a comma (one column).
-Separator detect_separator(std::string_view line) {
+FieldSeparator detect_separator(std::string_view line) {
   bool quoted = false, comma = false, semicolon = false, tab = false, blank = false;
   const std::string_view inner = trim(line);
   for (char c : inner) {
@@ -243,10 +273,22 @@ Separator detect_separator(std::string_view line) {
   return {',', false};
 }
 
+// The separator an option names, or the one `line` shows.
+FieldSeparator choose_separator(Separator option, std::string_view line) {
+  switch (option) {
+    case Separator::comma: return {',', false};
+    case Separator::semicolon: return {';', false};
+    case Separator::tab: return {'\t', false};
+    case Separator::blanks: return {' ', true};
+    case Separator::detect: break;
+  }
+  return detect_separator(line);
+}
+
 // Splits `line` into `fields` (cleared first). A field may be double-quoted ("" for a quote
 // inside, the separator allowed inside, blanks around the quotes ignored). Returns nullptr,
 // or why the line cannot be split: an unterminated quote, or text after a closing quote.
-const char* split_fields(std::string_view line, Separator separator, std::vector<Field>& fields) {
+const char* split_fields(std::string_view line, FieldSeparator separator, std::vector<Field>& fields) {
   fields.clear();
   const std::size_t n = line.size();
   auto blank = [&](char c) { return c == ' ' || (c == '\t' && separator.delimiter != '\t'); };
@@ -346,16 +388,19 @@ class CsvReader final : public InputReader {
         if (line_number_ == 0) throw Error(name() + ": empty input");
         throw Error(name() + ": no header line (only comments)");
       }
-      separator_ = detect_separator(line);
+      separator_ = choose_separator(options.separator, line);
       if (const char* why = split_fields(line, separator_, split_))
         throw Error(located(name(), line_number_, std::string("header: ") + why));
       for (const Field& field : split_) columns_.push_back(field_name(field));
       check_columns(columns_, located(name(), line_number_, "header"));
       for (std::size_t i = 0; i < columns_.size(); ++i) keep_.push_back(i);
       fields_ = columns_.size();
+      field_names_ = columns_;
     } else {
       if (!have_line && line_number_ == 0) throw Error(name() + ": empty input");
       fields_ = options.names.size();
+      field_names_ = options.names;
+      names_given_ = true;
       for (std::size_t i = 0; i < options.names.size(); ++i) {
         if (options.names[i] == "_") continue;
         columns_.push_back(options.names[i]);
@@ -363,7 +408,7 @@ class CsvReader final : public InputReader {
       }
       check_columns(columns_, name() + ": --names");
       if (have_line) {
-        separator_ = detect_separator(line);
+        separator_ = choose_separator(options.separator, line);
         pending_ = std::string(line), has_pending_ = true, pending_line_ = line_number_;
       }
     }
@@ -458,7 +503,9 @@ class CsvReader final : public InputReader {
     std::size_t field = 0;
     for (;;) {
       if (field == fields_) {
-        skip_bad("ragged row", "expected " + std::to_string(fields_) + " fields, got more");
+        // The count of them, not "more": a name list or header one short shows as the number.
+        const auto commas = std::count(p, end, ',');
+        ragged(fields_ + 1 + static_cast<std::size_t>(commas));
         return false;
       }
       const char* comma = static_cast<const char*>(std::memchr(p, ',', static_cast<std::size_t>(end - p)));
@@ -479,7 +526,7 @@ class CsvReader final : public InputReader {
       p = comma + 1;
     }
     if (field != fields_) {
-      skip_bad("ragged row", "expected " + std::to_string(fields_) + " fields, got " + std::to_string(field));
+      ragged(field);
       return false;
     }
     for (std::size_t i = 0; i < keep_.size(); ++i) row_[i] = values_[keep_[i]];
@@ -491,7 +538,7 @@ class CsvReader final : public InputReader {
       return false;
     }
     if (split_.size() != fields_) {
-      skip_bad("ragged row", "expected " + std::to_string(fields_) + " fields, got " + std::to_string(split_.size()));
+      ragged(split_.size());
       return false;
     }
     for (std::size_t field = 0; field < fields_; ++field) {
@@ -509,19 +556,24 @@ class CsvReader final : public InputReader {
     for (std::size_t i = 0; i < keep_.size(); ++i) row_[i] = values_[keep_[i]];
     return true;
   }
-  std::string column_name(std::size_t field) const {
-    for (std::size_t i = 0; i < keep_.size(); ++i)
-      if (keep_[i] == field) return columns_[i];
-    return "_";
+  // Reports a row of `got` fields where the header (or --names) has fields_.
+  void ragged(std::size_t got) {
+    std::string message = "expected " + std::to_string(fields_) + " fields, got " + std::to_string(got);
+    if (names_given_) message += " (--names names " + std::to_string(fields_) + ")";
+    skip_bad("ragged row", message);
   }
+  // The input's name of a field (the header's or --names', before any rename).
+  std::string column_name(std::size_t field) const { return field_names_[field]; }
 
-  Separator separator_;       // detected from the header (or the first row with --names)
+  FieldSeparator separator_;       // detected from the header (or the first row with --names)
   std::vector<Field> split_;  // the fields of the line being parsed (split_fields)
   bool discarding_ = false;  // inside a line longer than kMaxLineBytes
   std::size_t scanned_ = 0;
   std::uint64_t line_number_ = 0;
   std::size_t fields_ = 0;
   std::vector<std::size_t> keep_;
+  std::vector<std::string> field_names_;  // every field's name in the input, "_" when dropped
+  bool names_given_ = false;              // the names are --names', not a header's
   std::vector<double> values_;
   std::vector<double> row_;
   std::string pending_;
@@ -662,6 +714,7 @@ std::unique_ptr<Reader> Reader::open(const std::string& path, ReaderOptions opti
     reader = std::make_unique<CsvReader>(std::move(input), name, options);
   }
   reader->live_ = live;
+  reader->start_renames(options.renames);
   reader->start_time_order(options);
   reader->rows_returned_ = options.rows_returned;
   return reader;

@@ -16,8 +16,13 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 }  // namespace
 
 StreamStats::StreamStats(std::vector<std::string> columns) : columns_(std::move(columns)) {
-  for (std::size_t i = 0; i < columns_.size(); ++i)
-    if (columns_[i] == "t") t_ = i;
+  for (const char* name : {"t", "timestamp", "time"}) {
+    const auto it = std::find(columns_.begin(), columns_.end(), name);
+    if (it == columns_.end()) continue;
+    t_ = static_cast<std::size_t>(it - columns_.begin());
+    s_.time_column = name;
+    break;
+  }
   s_.columns = columns_.size();
   s_.has_time = t_.has_value();
   s_.nan_per_column.assign(columns_.size(), 0);

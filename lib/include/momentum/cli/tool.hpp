@@ -47,8 +47,12 @@ class Tool {
 
   // Positional input files; none or "-" means stdin.
   void add_inputs(const std::string& description = "input streams (- or none: stdin)");
-  // add_inputs, and the options of every tool that reads sample streams: --topic NAME, the
-  // sensor_msgs/msg/JointState topic of a ROS 2 bag (stream::ReaderOptions::topic).
+  // Positional input streams (add_inputs), and the options every tool that reads sample
+  // streams shares, which open_input applies: --separator (CSV: auto, comma, semicolon, tab,
+  // space), --rename OLD=NEW,... (repeatable; ranges, _ to drop, :unit and *factor; see
+  // stream::parse_renames), --preset NAME|FILE (a vendor's column mapping; a --rename of the
+  // same column wins over the preset's) and --topic NAME (the sensor_msgs/msg/JointState topic
+  // of a ROS 2 bag: stream::ReaderOptions::topic).
   void add_stream_inputs(const std::string& description = "input streams (- or none: stdin)");
   // The joints of the profile's chain, root to tip: open_input matches a bag's joints to them
   // by name (stream::ReaderOptions::joint_names). Tools with a profile call it before opening
@@ -108,8 +112,9 @@ class Tool {
   // One provenance comment for output streams: tool name, version and the arguments.
   std::string provenance() const;
 
-  // Opens one input with the tool's --strict setting, --topic and chain joints (when `options`
-  // has none of its own); its rows count for the no-rows policy.
+  // Opens one input with the tool's --strict setting (and --separator, --rename, --preset,
+  // --topic and the chain's joints when the tool has them and `options` sets none of its own);
+  // its rows count for the no-rows policy.
   std::unique_ptr<stream::Reader> open_input(const std::string& path, stream::ReaderOptions options = {});
   // Rows the inputs opened by open_input have returned so far, and rows skipped (every kind).
   std::uint64_t rows_returned() const { return rows_returned_; }
@@ -140,6 +145,14 @@ class Tool {
   bool strict_ = false;
   bool line_buffered_ = false;
   bool strict_added_ = false;
+  // --separator, --rename, --preset (add_stream_inputs), and the mappings they make.
+  std::string separator_option_;
+  std::vector<std::string> rename_options_;
+  std::string preset_option_;
+  stream::Separator separator_ = stream::Separator::detect;
+  std::vector<stream::ColumnRename> renames_;
+  // Reads the options above after parsing; throws UsageError for a bad one.
+  void prepare_stream_inputs();
   // The rows policy.
   std::optional<int> skipped_rows_status_ = kFailure;
   bool check_no_rows_ = true;

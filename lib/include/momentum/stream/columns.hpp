@@ -34,6 +34,15 @@ std::vector<std::size_t> column_indices(const std::vector<std::string>& columns,
                                         const std::vector<std::string>& wanted,
                                         const std::string& where);
 
+// When the joint columns of `columns` are numbered from 0 (q0, dq0, ddq0, i0 or tau_m0), the
+// --rename text that numbers them from 1 as the suite does ("q0..5=q1..6,dq0..5=dq1..6"), else
+// empty.
+std::string zero_based_joint_rename(const std::vector<std::string>& columns);
+
+// "the stream's joint columns are numbered from 0 (q0..5, dq0..5): ..." with the --rename that
+// fixes it, or empty when they are not (zero_based_joint_rename).
+std::string zero_based_joint_message(const std::vector<std::string>& columns);
+
 // Number of joints n such that prefix1..prefixn are all present (0 if prefix1 is absent).
 std::size_t count_joint_columns(const std::vector<std::string>& columns, std::string_view prefix);
 

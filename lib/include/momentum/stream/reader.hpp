@@ -12,9 +12,19 @@
 #include <vector>
 
 #include "momentum/stream/format.hpp"
+#include "momentum/stream/rename.hpp"
 #include "momentum/stream/time_order.hpp"
 
 namespace momentum::stream {
+
+// How the fields of a CSV line are separated: detected from the header (the first of comma,
+// semicolon and tab outside quotes, else runs of blanks), or one of them named.
+enum class Separator { detect, comma, semicolon, tab, blanks };
+
+// "auto", "comma", "semicolon", "tab", "space" (runs of spaces and tabs; also "blanks",
+// "whitespace"), or the character itself (",", ";", "\t" as a tab); throws momentum::Error
+// for anything else.
+Separator parse_separator(std::string_view name);
 
 struct ReaderOptions {
   // Stop with momentum::Error at the first bad row instead of reporting, counting and skipping.
@@ -22,6 +32,14 @@ struct ReaderOptions {
   // For header-less CSV (vendor exports): the column names to use; the first line is then data.
   // A name "_" drops that column. Empty: the first non-comment line is the header.
   std::vector<std::string> names;
+  // CSV only: how fields are separated (Separator::detect: from the header, or with `names`
+  // from the first row).
+  Separator separator = Separator::detect;
+  // Columns renamed, dropped and scaled as they are read (--rename, --preset), applied to the
+  // header (or to `names`): the reader's columns() and rows are the renamed ones, and the
+  // time-order policy uses the column that ends up named "t". Open fails when a mapping names
+  // a column the header lacks (apply_renames).
+  std::vector<ColumnRename> renames;
   // Display name of the input in messages; defaults to the path, or "<stdin>" for "-".
   std::string display_name;
   // Called before every read of the input from the first one, the header's included, until
@@ -137,6 +155,13 @@ class Reader {
   virtual const double* read_row() = 0;
 
  private:
+  // Renames (ReaderOptions::renames): the input's values at `mapped_from_` times
+  // `mapped_scale_` make the row; empty when no mapping is set.
+  void start_renames(const std::vector<ColumnRename>& renames);
+  const double* mapped(const double* raw);
+  std::vector<std::size_t> mapped_from_;
+  std::vector<double> mapped_scale_;
+  std::vector<double> mapped_row_;
   void start_time_order(const ReaderOptions& options);
   // Counts a skipped row at `position` for rows_skipped_before(): a run of skipped rows with
   // no good row among them is one entry, so memory stays constant.

@@ -12,7 +12,8 @@ namespace momentum::stream {
 
 class StreamStats {
  public:
-  // `columns`: the stream's column names; the time column is "t" when present.
+  // `columns`: the stream's column names. The time column is "t" when present, else one named
+  // "timestamp" or "time" (a recording not yet renamed, such as UR's RTDE client's).
   explicit StreamStats(std::vector<std::string> columns);
 
   // Adds one row; `where` names its location for the first few anomalies of each kind.
@@ -26,6 +27,7 @@ class StreamStats {
     std::uint64_t rows = 0;
     std::size_t columns = 0;
     bool has_time = false;
+    std::string time_column;  // the column taken as time (empty without one)
     double t_first = 0, t_last = 0;
     // Time steps between consecutive rows, s. The median is exact while there are at most 4096
     // distinct steps, else from a log-spaced histogram (within 0.12%).
