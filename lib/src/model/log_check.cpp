@@ -68,7 +68,22 @@ double spread_of(const Eigen::VectorXd& x, bool about_mean) {
 struct Fits {
   std::vector<ScaleFit> gravity, torque;
   double unexplained = 0;  // sum over joints of the torque fits'
+  // With the profile's constants taken at their word (scale 1, the friction terms fitted):
+  // the mean square residual over the model's error squared, summed over the joints. What
+  // tells the joints' orders apart, at rest (gravity) as in motion.
+  double misfit = 0;
+  // The same with every scale free (a sign, a unit or a constant of its own per joint).
+  double free_misfit = 0;
 };
+
+// The residual sum of squares of y - X.col(0) on the friction columns of X (1, 2: viscous and
+// Coulomb; not the offset, which at a pose held still would absorb gravity itself).
+double fixed_scale_rss(const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
+  const Eigen::MatrixXd others = X.middleCols(1, 2);
+  const Eigen::VectorXd target = y - X.col(0);
+  const Eigen::VectorXd b = others.colPivHouseholderQr().solve(target);
+  return (target - others * b).squaredNorm();
+}
 
 // The fits with chain joint j taking the stream's joint order[j], its torque column times
 // the chain joint's torque_scale[j] (its k_i for a current: the constant belongs to the drive).
@@ -115,6 +130,13 @@ Fits fit_all(const Model& model, const std::vector<Record>& records, const std::
     const auto J = static_cast<std::size_t>(j);
     fits.torque.push_back(fit_scale(X[J], y[J], model_error[J], spread_of(X[J].col(0), true)));
     fits.unexplained += fits.torque.back().unexplained;
+    if (m > 0) {
+      const double error2 = std::max(model_error[J] * model_error[J], 1e-12) * static_cast<double>(m);
+      fits.misfit += fixed_scale_rss(X[J], y[J]) / error2;
+      const Eigen::MatrixXd friction_and_scale = X[J].leftCols(3);
+      const Eigen::VectorXd b = friction_and_scale.colPivHouseholderQr().solve(y[J]);
+      fits.free_misfit += (y[J] - friction_and_scale * b).squaredNorm() / error2;
+    }
     fits.gravity.push_back(fit_scale(gx[J], gy[J], model_error[J], spread_of(gx[J], false)));
   }
   return fits;
@@ -336,26 +358,46 @@ LogCheckSummary check_log(stream::Reader& in, const Model& model, const LogCheck
   std::iota(identity.begin(), identity.end(), 0);
   Fits fits = fit_all(model, records, identity, scale, model_error, options.rest_speed);
   std::vector<int> order = identity;
-  if (!units_wrong && n <= options.max_permuted_joints && n > 1) {
+  const bool any_beyond_effort = std::find(beyond_effort.begin(), beyond_effort.end(), true) != beyond_effort.end();
+  if (!units_wrong && !any_beyond_effort && n <= options.max_permuted_joints && n > 1) {
     // Every order of the stream's joints, on at most 400 of the rows kept.
     std::vector<Record> few;
     const std::size_t step = std::max<std::size_t>(1, records.size() / 400);
     for (std::size_t k = 0; k < records.size(); k += step) few.push_back(records[k]);
-    const double identity_score = fit_all(model, few, identity, scale, model_error, options.rest_speed).unexplained;
+    const double identity_score = fit_all(model, few, identity, scale, model_error, options.rest_speed).misfit;
+    std::vector<std::pair<double, std::vector<int>>> scored;
+    std::vector<int> candidate_order = identity;
     double best_score = identity_score;
-    std::vector<int> best = identity, candidate_order = identity;
     while (std::next_permutation(candidate_order.begin(), candidate_order.end())) {
-      const Fits f = fit_all(model, few, candidate_order, scale, model_error, options.rest_speed);
-      if (f.unexplained < best_score) {
-        best_score = f.unexplained;
-        best = candidate_order;
+      const double misfit = fit_all(model, few, candidate_order, scale, model_error, options.rest_speed).misfit;
+      best_score = std::min(best_score, misfit);
+      scored.emplace_back(misfit, candidate_order);
+    }
+    // Of the orders within 20% of the best, the one that moves the fewest joints: a wrist
+    // whose torques the model barely predicts should not ride along with a real swap.
+    std::vector<int> best = identity;
+    int fewest = n + 1;
+    for (const auto& [misfit, candidate] : scored) {
+      if (misfit > 1.2 * best_score) continue;
+      int displaced = 0;
+      for (int j = 0; j < n; ++j) displaced += candidate[j] != j;
+      if (displaced < fewest) {
+        fewest = displaced;
+        best = candidate;
+        best_score = std::min(best_score, misfit);
       }
     }
     if (best != identity && best_score <= 0.5 * identity_score) {
       const Fits better = fit_all(model, records, best, scale, model_error, options.rest_speed);
       bool plausible = true;
       for (const auto& fit : better.torque) plausible = plausible && !fit.implausible();
-      if (plausible && better.unexplained <= 0.5 * fits.unexplained) {
+      // When a scale of the chain's order is implausible, better than it even with its
+      // scales free: a sign or a constant of one joint is no reason to reorder the others.
+      bool identity_plausible = true;
+      for (std::size_t j = 0; j < fits.torque.size(); ++j)
+        identity_plausible = identity_plausible && !fits.torque[j].implausible() && !fits.gravity[j].implausible();
+      if (plausible && better.misfit <= 0.5 * fits.misfit &&
+          (identity_plausible || better.misfit <= 0.5 * fits.free_misfit)) {
         order = best;
         summary.better_order.assign(best.begin(), best.end());
         for (int& o : summary.better_order) ++o;
@@ -367,8 +409,8 @@ LogCheckSummary check_log(stream::Reader& in, const Model& model, const LogCheck
         summary.findings.push_back(
             {"order", 0,
              "the stream's joints are not in the chain's order: the order " + order_text(best) +
-                 " explains the torques (unexplained variance " + significant(better.unexplained / n, 2) +
-                 " per joint against " + significant(fits.unexplained / n, 2) +
+                 " explains the torques (RMS misfit " + significant(std::sqrt(better.misfit / n), 2) +
+                 " times the model's error per joint, against " + significant(std::sqrt(fits.misfit / n), 2) +
                  "): reorder the columns so that chain joint " + moved_joints +
                  " (the joint names of a ROS JointState or a vendor export are often not in chain order)"});
         fits = better;

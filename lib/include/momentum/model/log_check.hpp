@@ -14,9 +14,11 @@
 //             tau_m = a tau_id + viscous dq + Coulomb sign(dq) + offset, friction being unknown:
 //             a near -1 is a torque constant of the wrong sign, a near 1000 or 1/1000 current
 //             in mA or a constant in the wrong unit, any other a far from 1 a wrong constant;
-//   order     every order of the stream's joints (n <= 7) is fitted on a few hundred rows, and
-//             one that explains the torques clearly better (half the unexplained variance or
-//             less, summed over the joints, and no implausible scale) is reported.
+//   order     every order of the stream's joints (n <= 7) is fitted on a few hundred rows with
+//             the profile's constants at their word (scale 1, friction fitted beside), and one
+//             with half the misfit or less (and no implausible scale; when the chain's order
+//             has one, half its misfit with free scales too) is reported, of those within 20%
+//             of the best the one that moves the fewest joints.
 //
 // A scale is judged against its uncertainty: the fit's standard error and the model's own
 // error, taken as 5% of the joint's effort limit (the URDF's nominal inertias are off by that
