@@ -9,6 +9,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/model/describe.hpp"
 #include "momentum/model/inertial_corrections.hpp"
+#include "momentum/model/log_check.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/model_stream.hpp"
 #include "momentum/model/profile.hpp"
@@ -36,10 +37,13 @@ int main(int argc, char** argv) {
   tool.add_profile();
   tool.add_payload();
   bool chain = false;
+  std::string check;
   model::ModelStreamOptions options;
   auto& app = tool.app();
   app.add_flag("--chain", chain, "print the chain even when an input is given or stdin is a pipe");
   app.add_flag("--mass-matrix", options.mass_matrix, "append the mass matrix entries m<i>_<k>");
+  app.add_option("--check", check, "check the profile against a collision-free log (gravity, torque constants, joint order, units); exit 1 on a finding")
+      ->type_name("LOG");
 
   return tool.run(argc, argv, [&] {
     if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
@@ -47,6 +51,15 @@ int main(int argc, char** argv) {
     model::select_payload(profile, tool.payload());
     const model::Model robot = model::build_model(profile);
     tool.set_chain_joints(robot.joint_names());  // a bag's joints are matched to them by name
+    if (!check.empty()) {
+      if (!tool.inputs().empty() || chain || options.mass_matrix)
+        throw cli::UsageError("--check takes the log as its argument, without inputs, --chain or --mass-matrix");
+      auto in = tool.open_input(check);
+      const model::LogCheckSummary summary = model::check_log(*in, robot);
+      const std::string text = model::describe_log_check(summary);
+      std::fwrite(text.data(), 1, text.size(), stdout);
+      return summary.findings.empty() ? cli::kSuccess : cli::kFailure;
+    }
     if (chain || (tool.inputs().empty() && !stdin_is_a_stream())) {
       std::string text = model::describe_chain(robot, profile);
       if (!model::read_inertial_corrections(profile).empty())

@@ -66,10 +66,19 @@ int main(int argc, char** argv) {
     std::string why;
     if (!options.IsValid(&why)) throw cli::UsageError(why);
     if (view_name == "force") {
-      // Events and truth only: mo-eval's matching, then estimated against true peak force.
-      if (events_path.empty() || truth_path.empty() || !tool.inputs().empty())
-        throw cli::UsageError("--view force takes --events and --truth, and no stream");
+      // Events (and truth) only: with a truth, mo-eval's matching, then estimated against true
+      // peak force; without (a real robot), each event's estimate against its time.
+      if (events_path.empty() || !tool.inputs().empty())
+        throw cli::UsageError("--view force takes --events (and --truth), and no stream");
       const auto detections = eval::read_detections(events_path, tool.strict());
+      if (truth_path.empty()) {
+        std::vector<detect::ForceEstimate> estimates;
+        for (const auto& d : detections)
+          if (std::isfinite(d.peak_force)) estimates.push_back({d.t_detect, d.peak_force, d.final_link});
+        if (estimates.empty())
+          throw Error(events_path + ": no event with an estimated force (f_peak: mo-detect's contact columns)");
+        return emit(detect::force_estimate_script(estimates, output, options));
+      }
       std::vector<detect::ForcePoint> points;
       for (const auto& o : eval::score(eval::read_truth(truth_path), detections, {}).outcomes)
         if (o.detection >= 0 && std::isfinite(o.force_error))

@@ -30,6 +30,34 @@ std::string force_view_script(const std::vector<ForcePoint>& points, const std::
   return s + "\n";
 }
 
+std::string force_estimate_script(const std::vector<ForceEstimate>& events, const std::string& output,
+                                  const PlotOptions& options) {
+  if (events.empty()) throw Error("no event with an estimated force to plot (mo-detect's contact columns, f_peak)");
+  const int height = options.width * 3 / 8;
+  double top = 0;
+  std::map<int, std::string> by_link;
+  for (const auto& e : events) {
+    top = std::max(top, e.estimate);
+    by_link[e.link] += core::exact(e.t_detect) + " " + core::exact(e.estimate) + "\n";
+  }
+  std::string s = "# momentum: estimated contact force of each event\n" + gnuplot_output(options, height, output);
+  for (const auto& [link, rows] : by_link) s += "$link" + std::to_string(link) + " << EOD\n" + rows + "EOD\n";
+  if (!options.title.empty()) s += "set title " + gnuplot_string(options.title) + "\n";
+  s += "set xlabel 'detected at t (s)'\nset ylabel 'estimated peak force (N)'\nset grid\nset key top left\n";
+  s += "set yrange [0:" + core::exact(1.1 * top) + "]\nset offsets graph 0.03, graph 0.03, 0, 0\n";
+  s += "plot ";
+  const char* separator = "";
+  for (const auto& [link, rows] : by_link) {
+    s += separator;
+    const std::string colour = " lc " + std::to_string(link + 1);  // gnuplot's colour sequence, the same per link
+    s += "$link" + std::to_string(link) + " using 1:2 with impulses lw 2" + colour + " notitle, $link" +
+         std::to_string(link) + " using 1:2 with points pt 7 ps 1.2" + colour + " title '" +
+         (link > 0 ? "link " + std::to_string(link) : std::string("link unknown")) + "'";
+    separator = ", ";
+  }
+  return s + "\n";
+}
+
 PlotView parse_plot_view(const std::string& name) {
   if (name == "time") return PlotView::time;
   if (name == "force") return PlotView::force;

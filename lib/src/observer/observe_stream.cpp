@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,6 +33,40 @@ int largest_joint_column(const stream::Reader& in, const std::string& prefix) {
 
 }  // namespace
 
+void StepJitter::add(double dt, double median) {
+  if (!(dt > 0 && median > 0 && std::isfinite(dt) && std::isfinite(median))) return;
+  const double e = dt / median - 1;
+  if (e <= kGap) {
+    ++ordinary_;
+    sum_abs_ += std::abs(e);
+    return;
+  }
+  ++gaps_;
+  longest_ = std::max(longest_, e);
+  const double bin = std::floor(e / kBin);
+  ++histogram_[bin < kBins ? static_cast<std::size_t>(bin) : kBins];
+}
+
+double StepJitter::sigma() const {
+  return ordinary_ ? std::sqrt(std::numbers::pi / 2) * sum_abs_ / static_cast<double>(ordinary_) : 0.0;
+}
+
+double StepJitter::gap_line() const {
+  const double k = std::sqrt(2 * std::log(50.0 * static_cast<double>(std::max<std::uint64_t>(steps(), 1))));
+  return std::max(kGap, k * sigma());
+}
+
+std::uint64_t StepJitter::unusual_gaps() const {
+  if (!(longest_ > gap_line())) return 0;
+  // To within a bin: the bin the line falls in counts whole.
+  const auto first = static_cast<std::size_t>(std::min(std::floor(gap_line() / kBin), double{kBins}));
+  std::uint64_t count = 0;
+  for (std::size_t b = first; b < histogram_.size(); ++b) count += histogram_[b];
+  return count;
+}
+
+double StepJitter::longest_unusual() const { return longest_ > gap_line() ? 1 + longest_ : 0.0; }
+
 namespace {
 MomentumObserver make_observer(stream::Reader& in, const model::Model& model,
                                const ObserveStreamOptions& options) {
@@ -47,6 +82,13 @@ MomentumObserver make_observer(stream::Reader& in, const model::Model& model,
   int found = 0;
   for (const char* prefix : {"q", "dq", "tau_m", "i"}) found = std::max(found, largest_joint_column(in, prefix));
   if (found == 0) in.require("q1");
+  if (found == n - 1 && in.find("q0")) {
+    // Numbered from 0 (a ROS JointState's or a vendor's habit): not a joint short.
+    const std::string last = std::to_string(n - 1);
+    fail("the joint columns are numbered from 0 (q0..q" + last + ", dq0..dq" + last +
+         "): the suite numbers joints from 1, base to tip (" + chain + "): rename them q1..q" +
+         std::to_string(n) + " (mo-model --check LOG checks the rest)");
+  }
   if (found != n) {
     fail("the stream has " + std::to_string(found) + " joint" + (found == 1 ? "" : "s") +
          " (columns up to q" + std::to_string(found) + ", dq" + std::to_string(found) + ") but " + chain);
@@ -109,6 +151,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   // The residual as last written: what a row left out is written with.
   std::vector<double> held_r(n, 0.0), held_tau_f(n, 0.0), held_mu(n, 0.0);
   ObserveStreamSummary summary;
+  StepJitter jitter;
   std::string bad_run_start;
   // The previous row as read, to tell exact duplicates from other rows out of time order.
   std::vector<double> previous_row(width_in);
@@ -180,6 +223,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     auto here = [&] { return where ? *where : in_.where(); };
     unpack(row);
     const double previous_t = observer_.last_time();
+    const double median = observer_.median_dt();
     const SampleStatus status = observer_.step(t, q.data(), dq.data(), tau.data(), r.data(),
                                                tau_f.data(), mu.data());
     switch (status) {
@@ -188,8 +232,12 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
              std::string(duplicate ? "duplicate row" : "time does not increase") + ": t=" + exact(t) +
                  " after t=" + exact(previous_t));
         return;
+      case SampleStatus::ok:
+        if (!after_left_out) jitter.add(t - previous_t, median);
+        break;
       case SampleStatus::bridged:
         if (!after_left_out) {
+          jitter.add(t - previous_t, median);
           ++summary.bridged_gaps;
           summary.longest_bridge = std::max(summary.longest_bridge, observer_.last_gap());
         }
@@ -221,8 +269,6 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       }
       case SampleStatus::started:
         bad_run_start.clear();
-        break;
-      case SampleStatus::ok:
         break;
     }
     if (status != SampleStatus::invalid) {
@@ -422,9 +468,15 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     summary.out_of_order_rows += time->out_of_order + time->not_finite;
     summary.rejected_rows += time->dropped();
   }
-  if (summary.bridged_gaps) {
-    warn(std::to_string(summary.bridged_gaps) + " gap" + (summary.bridged_gaps == 1 ? "" : "s") +
-         " bridged without a restart (longest " + short_number(summary.longest_bridge) + " s)");
+  summary.step_jitter = jitter.sigma();
+  summary.unusual_gaps = jitter.unusual_gaps();
+  if (summary.unusual_gaps) {
+    // Gaps within the log's own jitter are its ordinary timing, bridged without a word.
+    const std::uint64_t gaps = summary.unusual_gaps;
+    warn(std::to_string(gaps) + " gap" + (gaps == 1 ? "" : "s") + " bridged without a restart (longest " +
+         short_number(summary.longest_bridge) + " s, " + core::significant(jitter.longest_unusual(), 3) +
+         " median steps; the log's steps otherwise spread by " + core::fixed(100 * jitter.sigma(), 1) +
+         "%): samples were lost");
   }
   if (summary.flagged_rows) {
     std::string times;

@@ -51,6 +51,18 @@ struct ForcePoint {
 std::string force_view_script(const std::vector<ForcePoint>& points, const std::string& output,
                               const PlotOptions& options);
 
+// One detected contact of a real robot's force view (no truth): its detection time (s), the
+// estimated peak force (N) and the isolated link (1..n; 0: unknown).
+struct ForceEstimate {
+  double t_detect = 0, estimate = 0;
+  int link = 0;
+};
+// The gnuplot script of the force view without a truth: each event's estimated peak force
+// against its detection time, one colour per isolated link. Throws momentum::Error without an
+// event that has an estimate.
+std::string force_estimate_script(const std::vector<ForceEstimate>& events, const std::string& output,
+                                  const PlotOptions& options);
+
 class ViewData {
  public:
   static constexpr std::size_t kMaxEvents = 12;  // panels of the events view

@@ -39,6 +39,45 @@ struct ObserveStreamOptions {
   std::function<void(std::uint64_t rows, double t)> progress;
 };
 
+// The sampling jitter of a log, learnt from the log itself, to tell lost samples from the
+// ordinary spread of its intervals (real controllers write rows 10 or 12 ms apart, a simulated
+// clock jitters by a tenth of its period). An interval dt is measured against the running
+// median step m as e = dt / m - 1. Ordinary steps (those the observer integrates without a
+// check, e <= 0.5) estimate the jitter's standard deviation as 1.2533 times their mean |e|
+// (exact for normal jitter); longer steps (the observer's gaps) are counted in a histogram of e
+// (bins 0.01 wide up to e = 20, constant memory). A gap is unusual for the log when its e
+// exceeds both 0.5 and k standard deviations, where k is the deviation that as many normal
+// steps as the log has would exceed with a chance of 1% (P(Z > k) <= exp(-k^2/2) / 2, so
+// k = sqrt(2 ln(50 N))): a lost sample (e near 1) stands out of any jitter under about 15% of
+// the period, and a jitter step does not pass for one.
+class StepJitter {
+ public:
+  // One interval dt (s, > 0) after a running median step `median` (s, > 0); others are ignored.
+  void add(double dt, double median);
+  // Steps seen, and the gaps among them (e > 0.5).
+  std::uint64_t steps() const { return ordinary_ + gaps_; }
+  std::uint64_t gaps() const { return gaps_; }
+  // The jitter's standard deviation estimated from the ordinary steps, in median steps (0
+  // before any).
+  double sigma() const;
+  // The e beyond which a gap is unusual: max(0.5, k sigma).
+  double gap_line() const;
+  // Gaps beyond gap_line() (to within a bin), and the longest of them in median steps (1 + e;
+  // 0 when none).
+  std::uint64_t unusual_gaps() const;
+  double longest_unusual() const;
+
+ private:
+  static constexpr double kGap = 0.5;
+  static constexpr double kBin = 0.01;
+  static constexpr int kBins = 2000;
+  std::uint64_t ordinary_ = 0;
+  std::uint64_t gaps_ = 0;
+  double sum_abs_ = 0;
+  double longest_ = 0;
+  std::vector<std::uint64_t> histogram_ = std::vector<std::uint64_t>(kBins + 1, 0);  // last: overflow
+};
+
 struct ObserveStreamSummary {
   std::uint64_t rows_written = 0;
   std::uint64_t invalid_rows = 0;   // rows with NaN/inf inputs (written with NaN residuals)
@@ -48,6 +87,10 @@ struct ObserveStreamSummary {
   std::uint64_t restarts = 0;       // restarts after a gap or after invalid rows
   std::uint64_t bridged_gaps = 0;   // gaps integrated across without a restart
   double longest_bridge = 0;        // the longest of them, s
+  // The log's own timing (StepJitter): the jitter's standard deviation in median steps, and
+  // the bridged gaps longer than it explains (lost samples; warned about at the end).
+  double step_jitter = 0;
+  std::uint64_t unusual_gaps = 0;
   double median_dt = 0;             // running median dt at the end, s
   // Rows whose signals disagree (signal_check.hpp), see StreamObserver::run:
   std::uint64_t flagged_rows = 0;       // left out and bridged (written with the held residual)
@@ -79,7 +122,8 @@ class StreamObserver {
   // through momentum::warn with their location, and the observer continues from the last good
   // row as if the row had not been there; in strict mode it is rejected through
   // Reader::reject_row (an error) when options.strict. At the end, one warning sums up the skipped rows and one the
-  // bridged gaps.
+  // bridged gaps that the log's own timing jitter does not explain (StepJitter); a log whose
+  // only long steps are its ordinary jitter raises none.
   //
   // Rows whose signals disagree (options.observer.signals, signal_check.hpp): a row beyond
   // the physical limits, or whose positions and velocities disagree with the last good row, is

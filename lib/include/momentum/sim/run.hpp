@@ -91,7 +91,12 @@ struct RunSummary {
   int contacts = 0;
   double duration = 0;              // s
   double internal_rate_hz = 0;      // the rate actually used (a multiple of the output rate)
-  double max_tracking_error = 0;    // largest |q_d - q| over the run and the joints, rad
+  // Largest |q_d - q| over the joints, rad, outside the contacts and the loop's recovery after
+  // each (ten time constants of its PD part plus one integral time): what the controller did
+  // not follow of its own accord (effort limits, a bandwidth the control rate cannot hold).
+  double max_tracking_error = 0;
+  // Largest |q_d - q| during a contact and its recovery, rad: the contacts' deflection.
+  double max_contact_deflection = 0;
 };
 
 struct RunCallbacks {
