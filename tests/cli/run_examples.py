@@ -48,8 +48,11 @@ MARK = re.compile(r'^(?:;|<!--)\s*test:\s*(?:(not run):\s*(.*?)|with "(.*)" as "
 
 
 def blocks(path):
-    """(line, text, mark) of each literal block; mark: None, ("not run", reason), ("with", old, new)."""
+    """(line, text, mark) of each literal block; mark: None, ("not run", reason), ("with", old, new).
+    In a man page's source a backslash is written doubled (scdoc's escape): it is run as the
+    reader sees it, single."""
     out, literal, body, start, mark, last = [], False, [], 0, None, None
+    unescape = path.endswith(".scd")
     for number, line in enumerate(open(path, encoding="utf-8").read().split("\n"), 1):
         if line.strip().startswith("```"):
             if literal:
@@ -61,7 +64,7 @@ def blocks(path):
             literal = not literal
             continue
         if literal:
-            body.append(line)
+            body.append(line.replace("\\\\", "\\") if unescape else line)
         elif line.strip():
             last = line.strip()
     return out
@@ -300,6 +303,25 @@ class Fixture:
 
     make_comply = make_stop_arm
 
+    # ---- other robots' data -------------------------------------------------------------------
+    def make_run_mcap(self):
+        # A ROS 2 bag of the paper arm (tests/data/mcap, written by the MCAP project's own
+        # writer; its joints shuffled in each message), where the examples expect rosbag2's.
+        os.makedirs(self.path("run"), exist_ok=True)
+        shutil.copy(os.path.join(self.data, "mcap", "zstd.mcap"), self.path("run/run_0.mcap"))
+
+    def make_ur10e_json(self):
+        real = os.path.join(self.data, "real-ur10e")
+        shutil.copy(os.path.join(real, "profile.json"), self.path("ur10e.json"))
+        shutil.copy(os.path.join(real, "ur10e.urdf"), self.work)
+
+    def make_robot_data_csv(self):
+        # The real UR10e's collision-free log as UR's RTDE client records it.
+        self.need("ur10e.json")
+        real = os.path.join(self.data, "real-ur10e")
+        self.sh(f"python3 {os.path.join(self.data, 'rtde', 'make_rtde_recording.py')} "
+                f"{os.path.join(real, 'logs', 'no_torque.csv')} ur10e.json > robot_data.csv", "robot_data.csv")
+
     def make_share(self):
         os.symlink(os.path.join(self.source, "share"), self.path("share"))
 
@@ -315,6 +337,7 @@ FILES = {"true.json": "true_json", "arm.json": "arm_json", "ur5.json": "ur5_json
          "arm.csv": "arm_csv", "arm.bin": "arm_bin", "export.csv": "export_csv",
          "controller-export.csv": "controller_export_csv", "arm.dbc": "arm_dbc", "run.log": "run_log",
          "arm.map": "arm_map", "drive-test.asc": "drive_test_asc", "stop-arm": "stop_arm", "comply": "comply",
+         "run/run_0.mcap": "run_mcap", "ur10e.json": "ur10e_json", "robot_data.csv": "robot_data_csv",
          "share/": "share", "tests/": "tests"}
 
 

@@ -12,6 +12,7 @@
 #include "momentum/core/number.hpp"
 #include "momentum/model/dynamics.hpp"
 #include "momentum/stream/error.hpp"
+#include "momentum/stream/columns.hpp"
 
 namespace momentum::model {
 
@@ -225,8 +226,8 @@ LogCheckSummary check_log(stream::Reader& in, const Model& model, const LogCheck
     summary.findings.push_back(
         {"columns", 0,
          "the joint columns are numbered from 0 (q0..q" + last + ", dq0..dq" + last +
-             "): the suite numbers joints from 1, base to tip; rename them q1..q" + std::to_string(n) +
-             " (read here as joints 1.." + std::to_string(n) + ")"});
+             "): the suite numbers joints from 1, base to tip; read the log with --rename " +
+             stream::zero_based_joint_rename(in.columns()) + " (read here as joints 1.." + std::to_string(n) + ")"});
   }
 
   // The velocity check on every row; the rows for the fits decimated to max_samples.

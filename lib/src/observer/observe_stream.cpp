@@ -82,13 +82,6 @@ MomentumObserver make_observer(stream::Reader& in, const model::Model& model,
   int found = 0;
   for (const char* prefix : {"q", "dq", "tau_m", "i"}) found = std::max(found, largest_joint_column(in, prefix));
   if (found == 0) in.require("q1");
-  if (found == n - 1 && in.find("q0")) {
-    // Numbered from 0 (a ROS JointState's or a vendor's habit): not a joint short.
-    const std::string last = std::to_string(n - 1);
-    fail("the joint columns are numbered from 0 (q0..q" + last + ", dq0..dq" + last +
-         "): the suite numbers joints from 1, base to tip (" + chain + "): rename them q1..q" +
-         std::to_string(n) + " (mo-model --check LOG checks the rest)");
-  }
   if (found != n) {
     fail("the stream has " + std::to_string(found) + " joint" + (found == 1 ? "" : "s") +
          " (columns up to q" + std::to_string(found) + ", dq" + std::to_string(found) + ") but " + chain);
