@@ -44,22 +44,7 @@ class McapReader final : public Reader {
     chain_ = options.joint_names;
     records_ = std::make_unique<mcap::RecordReader>(*in_, name_);
     if (!seekable_path.empty()) check_summary(mcap::summary_channels(seekable_path));
-    for (;;) {
-      const Item item = records_->next();
-      if (item == Item::end) throw Error(no_topic_message());
-      if (item == Item::damage) {
-        raw_position_ = record_position();
-        skip_bad(records_->damage_kind(), records_->damage());
-        continue;
-      }
-      if (item == Item::channel) {
-        consider(records_->channel());
-        continue;
-      }
-      if (!selected(records_->message().channel_id) || !decode()) continue;
-      if (columns_.empty() && !set_columns()) continue;
-      if (fill_row()) break;
-    }
+    if (!next_message_row()) throw Error(no_topic_message());
     first_position_ = raw_position_;
     first_pending_ = true;
   }
@@ -71,9 +56,18 @@ class McapReader final : public Reader {
       ++rows_read_;
       return row_.data();
     }
+    if (!next_message_row()) return nullptr;
+    ++rows_read_;
+    return row_.data();
+  }
+
+  // Reads records up to the next message of the selected topic that fills row_ (the columns
+  // set from the first one); damage is reported and skipped, channels are considered on the
+  // way. False at the end of the bag.
+  bool next_message_row() {
     for (;;) {
       const Item item = records_->next();
-      if (item == Item::end) return nullptr;
+      if (item == Item::end) return false;
       if (item == Item::damage) {
         raw_position_ = record_position();
         skip_bad(records_->damage_kind(), records_->damage());
@@ -83,9 +77,9 @@ class McapReader final : public Reader {
         consider(records_->channel());
         continue;
       }
-      if (!selected(records_->message().channel_id) || !decode() || !fill_row()) continue;
-      ++rows_read_;
-      return row_.data();
+      if (!selected(records_->message().channel_id) || !decode()) continue;
+      if (columns_.empty() && !set_columns()) continue;
+      if (fill_row()) return true;
     }
   }
 
