@@ -70,6 +70,20 @@ for target in "${targets[@]}"; do
   "$cxx" "${link_flags[@]}" "${objects[@]}" "${libs[@]}" -o "$work/fuzz_$target" ||
     { echo "fuzz: $target did not link" >&2; exit 1; }
 done
+# One target's fuzzer on its corpus; 1 on a finding. The targets run side by side, as many at
+# once as there are cores (each is single-threaded).
+run_target() {
+  local target=$1 corpus="$work/corpus_$1" max_len=4096
+  [[ $target == urdf || $target == stream_mcap ]] && max_len=65536  # real URDFs and the bags: tens of kilobytes
+  if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions="$src/tests/lsan.supp":print_suppressions=0 "./fuzz_$target" "${budget[@]}" -max_len=$max_len -timeout=10 \
+        -print_final_stats=1 -artifact_prefix="$work/${target}-" "$corpus" > "$work/$target.log" 2>&1); then
+    echo "fuzz: $target FAILED; see $work/$target.log and $work/${target}-*" >&2
+    tail -30 "$work/$target.log" >&2
+    return 1
+  fi
+  grep -E "stat::number_of_executed_units|Done" "$work/$target.log" | sed "s/^/fuzz: $target: /" || true
+}
+running=0
 for target in "${targets[@]}"; do
   corpus="$work/corpus_$target"
   mkdir -p "$corpus"
@@ -160,15 +174,14 @@ PY
     cp "$src/tests/fuzz/regressions/$target"/* "$corpus"/
   fi
   echo "fuzz: running $target ($what)"
-  max_len=4096
-  [[ $target == urdf || $target == stream_mcap ]] && max_len=65536  # real URDFs and the bags: tens of kilobytes
-  if ! (cd "$work" && ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions="$src/tests/lsan.supp":print_suppressions=0 "./fuzz_$target" "${budget[@]}" -max_len=$max_len -timeout=10 \
-        -print_final_stats=1 -artifact_prefix="$work/${target}-" "$corpus" > "$work/$target.log" 2>&1); then
-    echo "fuzz: $target FAILED; see $work/$target.log and $work/${target}-*" >&2
-    tail -30 "$work/$target.log" >&2
-    status=1
-  else
-    grep -E "stat::number_of_executed_units|Done" "$work/$target.log" | sed "s/^/fuzz: $target: /" || true
+  run_target "$target" &
+  if ((++running >= $(nproc))); then
+    wait -n || status=1
+    ((running--))
   fi
+done
+while ((running > 0)); do
+  wait -n || status=1
+  ((running--))
 done
 exit $status
