@@ -439,10 +439,18 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
     stream::Writer* raw = passed.get();
     const int stall_ms = static_cast<int>(std::min(o.stall, 86400.0) * 1000);
     const std::string stall_text = "no row for " + core::significant(o.stall, 3) + " s";
+    // A pipe that has delivered the stream well ahead of the wall clock is a recording or a
+    // simulation being replayed: a pause of the program writing it (a buffer filling, a busy
+    // machine) is not the robot falling silent. Ahead: more than twice the wall time since the
+    // first row, plus a second.
+    std::chrono::steady_clock::time_point first_row_wall;  // when the first row was read
     in->before_read([&, raw] {
       if (raw && raw->interactive()) raw->flush();
       const bool started = std::isfinite(summary.t_last);
-      live.wait(watch, started ? stall_ms : 0, [&] { blind.input_stopped(summary.t_last, stall_text, in->name()); });
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - first_row_wall).count();
+      const bool replay = started && summary.t_last - summary.t_first > 2 * wall + 1.0;
+      live.wait(watch, started && !replay ? stall_ms : 0,
+                [&] { blind.input_stopped(summary.t_last, stall_text, in->name()); });
     });
     std::uint64_t skipped_seen = 0;
     std::vector<std::string> residual_names = stream::joint_columns(prefix, n);
@@ -493,7 +501,10 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
       }
       if (std::isfinite(t_prev)) summary.seconds += t - t_prev;
       t_prev = t;
-      if (!std::isfinite(summary.t_first)) summary.t_first = t;
+      if (!std::isfinite(summary.t_first)) {
+        summary.t_first = t;
+        first_row_wall = std::chrono::steady_clock::now();
+      }
       summary.t_last = t;
       not_finite.clear();
       for (std::size_t j = 0; j < n; ++j) {
