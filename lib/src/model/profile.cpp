@@ -233,6 +233,11 @@ Profile load_profile(const std::filesystem::path& path) {
   buffer << in.rdbuf();
   if (in.bad()) fail(path, "cannot read profile");
   const std::string text = buffer.str();
+  // nlohmann's lexer takes a NUL byte for the end of input and would load the document in
+  // front of it, dropping whatever follows without a word (and the text-preserving edit that
+  // writes back sees text after the document).
+  if (const auto nul = text.find('\0'); nul != std::string::npos)
+    fail(path, "NUL byte in profile text (not a text file?)", line_of_byte(text, nul + 1));
   check_depth(text, path);
   nlohmann::json document;
   try {
