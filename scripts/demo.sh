@@ -5,7 +5,10 @@
 #      (mo-lugre-fit, through the profile's second-order observer, as the paper);
 #   2. at 125 Hz and at 1 kHz: calibrate thresholds on one hour of collision-free motion
 #      (mo-calibrate), count false alarms on another collision-free hour, then 50 random
-#      collisions on links 2 and 3: observe, detect, score
+#      collisions on links 2 and 3: observe, detect, score. The hour of false alarms and the
+#      collisions carry sensor glitches as real controllers' logs do (mo-sim --glitches: abrupt
+#      stops, velocity spikes, encoder jumps; one a minute), which mo-observe's signal check
+#      must tell from contacts
 #      (mo-eval) and plot (mo-plot). Detection uses the first-order observer (K1 = 50 1/s): the
 #      second order's high-pass (K2) leaves a tail after each contact that keeps events open.
 # Results go to demo-out/ (override with DEMO_OUT); each calibration hour takes a few minutes.
@@ -63,7 +66,7 @@ for rate in 125 1000; do
   echo "== $rate Hz: false alarms on another hour of collision-free motion"
   set +e
   mo-sim -p "$arm" --trajectory paper --rate "$rate" --duration 3600 --seed 4 --output-format bin \
-    --truth "free-truth-$rate.csv" | mo-observe -p fitted.json --order 1 --k1 50 |
+    --glitches 60 --truth "free-truth-$rate.csv" | mo-observe -p fitted.json --order 1 --k1 50 |
     mo-detect -p "calibrated-$rate.json" --skip 0.5 > "free-events-$rate.csv"
   statuses=("${PIPESTATUS[@]}")
   set -e
@@ -75,7 +78,7 @@ for rate in 125 1000; do
   mo-eval --truth "free-truth-$rate.csv" "free-events-$rate.csv" | grep -E "^false alarms"
 
   echo "== $rate Hz: 50 random collisions"
-  mo-sim -p "$arm" --trajectory paper --rate "$rate" --collisions 50 --truth "truth-$rate.csv" --seed 3 |
+  mo-sim -p "$arm" --trajectory paper --rate "$rate" --collisions 50 --glitches 10 --truth "truth-$rate.csv" --seed 3 |
     mo-observe -p fitted.json --order 1 --k1 50 > "observed-$rate.csv"
   status=0
   mo-detect -p "calibrated-$rate.json" --skip 0.5 "observed-$rate.csv" > "events-$rate.csv" || status=$?

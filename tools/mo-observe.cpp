@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
   app.add_option("--gap-factor", gap_factor, "bridge gaps of up to X median steps, restart after longer ones (default 5)")->type_name("X");
   app.add_option("--bridge-tolerance", bridge_tolerance, "largest position mismatch across a bridged gap, rad (default 0.001)")->type_name("RAD");
   app.add_flag("--no-signal-check", no_signal_check, "take every row at its word (no test of q, dq and currents against each other and the limits)");
-  app.add_option("--signal-sigmas", signal_sigmas, "tolerance of the position-velocity disagreement, in robust standard deviations of its own (default 10)")->type_name("Z");
+  app.add_option("--signal-sigmas", signal_sigmas, "tolerance of the position-velocity disagreement and of a velocity's departure from its trend, in robust standard deviations of their own (default 10)")->type_name("Z");
   app.add_option("--limit-factor", limit_factor, "values beyond X times the URDF's limits are sensor faults (default 2)")->type_name("X");
   app.add_flag("--flag-column", flag_column, "append a column 'flagged' (1 on rows left out because their signals disagree)");
   app.add_flag("--no-friction", no_friction, "ignore the profile's friction model (r only)");

@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 
+#include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/observer/observe_stream.hpp"
@@ -230,7 +231,7 @@ TEST(SignalCheck, LimitsAndTolerance) {
   std::uniform_real_distribution<double> noise(-1e-5, 1e-5);
   for (int k = 0; k < 200; ++k) {
     for (int j = 0; j < kJoints; ++j) qb[j] = noise(rng);
-    check.learn(t, qa, dq, t + 0.001, qb, dq);
+    check.learn(t, qa, dq, tau, t + 0.001, qb, dq, tau);
     std::copy(qb, qb + kJoints, qa);
     t += 0.001;
   }
@@ -272,4 +273,95 @@ TEST(SignalCheck, FineSignalsAndADuplicateOfAHeldRow) {
   EXPECT_EQ(summary.duplicate_rows, 1u);
   ASSERT_EQ(checked.rows.size(), 300u);
   EXPECT_EQ(checked.rows[150][checked.column("flagged")], 1.0);
+}
+
+namespace {
+
+// The reference trajectory as a real 1 kHz controller logs it: positions from encoders of
+// 2^16 counts per turn (9.6e-5 rad), velocities rounded to 1e-3 rad/s with noise of 2e-3
+// rad/s, motor torques with noise of 0.2 Nm.
+Table as_logged(const Table& clean) {
+  Table table = clean;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> velocity_noise(0.0, 2e-3), torque_noise(0.0, 0.2);
+  const double count = 2 * M_PI / 65536;
+  for (auto& row : table.rows)
+    for (int j = 0; j < kJoints; ++j) {
+      row[q_col(j)] = count * std::round(row[q_col(j)] / count);
+      row[dq_col(j)] = 1e-3 * std::round((row[dq_col(j)] + velocity_noise(rng)) / 1e-3);
+      row[tau_col(j)] += torque_noise(rng);
+    }
+  return table;
+}
+
+std::vector<std::size_t> flagged_rows(const Table& checked) {
+  std::vector<std::size_t> seen;
+  const int flagged = checked.column("flagged");
+  for (std::size_t k = 0; k < checked.rows.size(); ++k)
+    if (checked.rows[k][flagged] == 1) seen.push_back(k);
+  return seen;
+}
+
+}  // namespace
+
+// At 1 kHz a one-row velocity spike of 0.09 rad/s moves the trapezoid by 4.5e-5 rad, half an
+// encoder count: the positions cannot see it, and it raised a false alarm in the demo (18 in a
+// collision-free hour). The velocity's own trend and the motor torque can: such spikes are left
+// out, one row each. A reversal the motor drives (the velocity and the torque leaving their
+// trends together, as stick-slip at rest does on the UR10e) is observed as it is.
+TEST(SignalCheck, VelocitySpikeUnderAnEncoderCountIsLeftOut) {
+  const Table clean = as_logged(reference());
+  Table glitched = clean;
+  const std::vector<std::size_t> spikes{1500, 3300, 5100, 7100};
+  for (std::size_t i = 0; i < spikes.size(); ++i)
+    glitched.rows[spikes[i]][dq_col(static_cast<int>(i % 3))] += i % 2 ? 0.09 : -0.09;
+  // Driven: joint 1's velocity leaves its trend by 0.05 rad/s for one row, and its motor torque
+  // by the M_11 * 0.05 / 0.001 that takes.
+  const std::size_t driven = 6300;
+  mm::Data data(ur5());
+  Eigen::MatrixXd mass(kJoints, kJoints);
+  Eigen::VectorXd q(kJoints);
+  for (int j = 0; j < kJoints; ++j) q[j] = clean.rows[driven][q_col(j)];
+  mm::mass_matrix(ur5(), data, q, mass);
+  glitched.rows[driven][dq_col(0)] += 0.05;
+  glitched.rows[driven][tau_col(0)] += mass(0, 0) * 0.05 / 0.001;
+  mo::ObserveStreamSummary summary;
+  const Table checked = observe(glitched, true, &summary);
+  ASSERT_EQ(checked.rows.size(), clean.rows.size());
+  EXPECT_EQ(flagged_rows(checked), spikes);
+  EXPECT_EQ(summary.restarts, 0u);
+  const Table unchecked = observe(glitched, false);
+  const Table reference_r = observe(clean, false);
+  const double without = largest_difference(unchecked, reference_r, 0, 6000);
+  const double with = largest_difference(checked, reference_r, 0, 6000);
+  std::printf("largest |r - r_clean| before the driven row: %.3g Nm without the check, %.3g Nm with it\n", without,
+              with);
+  EXPECT_GT(without, 4 * with);
+}
+
+// A glitch on the row after a lost sample: the observer bridged the gap from the glitched
+// velocity (its position mismatch made it restart there, from the glitch), and the check did
+// not judge rows after gaps. Now the row is judged over the longer interval and left out, and
+// the next row bridges both. (On the logged trajectory: on exact signals the trapezoid's own
+// error, which grows with the cube of the interval, exceeds a tolerance learnt from 1 ms steps.)
+TEST(SignalCheck, GlitchAfterALostSampleIsLeftOut) {
+  Table clean = as_logged(reference());
+  const std::size_t lost = 3000;
+  clean.rows.erase(clean.rows.begin() + static_cast<std::ptrdiff_t>(lost));
+  Table glitched = clean;
+  for (int j = 0; j < kJoints; ++j) {
+    const double v = clean.rows[lost][dq_col(j)];
+    glitched.rows[lost][dq_col(j)] = (v > 0 ? -1.0 : 1.0) * (std::fabs(v) + 0.09);
+  }
+  mo::ObserveStreamSummary summary;
+  const Table checked = observe(glitched, true, &summary);
+  EXPECT_EQ(flagged_rows(checked), std::vector<std::size_t>{lost});
+  EXPECT_EQ(summary.restarts, 0u);
+  const Table reference_r = observe(clean, false);
+  const Table unchecked = observe(glitched, false);
+  const double with = largest_difference(checked, reference_r, 0, clean.rows.size());
+  const double without = largest_difference(unchecked, reference_r, 0, clean.rows.size());
+  std::printf("largest |r - r_clean|: %.3g Nm without the check, %.3g Nm with it\n", without, with);
+  EXPECT_GT(without, 5.0);
+  EXPECT_LT(with, 1.0);
 }

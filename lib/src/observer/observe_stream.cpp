@@ -159,7 +159,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   // whether the interval into it was a plain one (learnt from).
   SignalCheck check(model_, options_.observer.signals);
   const bool checking = options_.observer.signals.enabled;
-  std::vector<double> good_q(n), good_dq(n), held_q(n), held_dq(n);
+  std::vector<double> good_q(n), good_dq(n), good_tau(n), held_q(n), held_dq(n);
   double good_t = 0;
   bool have_good = false;
   bool limits_suspended = false;
@@ -170,6 +170,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     std::string where;
     std::string why;
     bool impossible = false;  // beyond the physical limits: never taken as real
+    bool jump = false;        // its velocity left the trend (SignalCheck::velocity_jumps)
   };
   constexpr std::size_t kMaxHeld = 32;
   std::vector<Held> held(kMaxHeld);
@@ -267,10 +268,11 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     if (status != SampleStatus::invalid) {
       // The signal check learns its tolerance from plain intervals between good rows only.
       if (status == SampleStatus::ok && have_good && !after_left_out)
-        check.learn(good_t, good_q.data(), good_dq.data(), t, q.data(), dq.data());
+        check.learn(good_t, good_q.data(), good_dq.data(), good_tau.data(), t, q.data(), dq.data(), tau.data());
       good_t = t;
       good_q = q;
       good_dq = dq;
+      good_tau = tau;
       have_good = true;
       held_r = r;
       if (friction) {
@@ -339,12 +341,13 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     held_count = 0;
   };
 
-  auto hold = [&](const double* row, bool impossible, std::string why) {
+  auto hold = [&](const double* row, bool impossible, std::string why, bool jump = false) {
     Held& h = held[held_count++];
     h.values.assign(row, row + width_in);
     h.where = in_.where();
     h.why = std::move(why);
     h.impossible = impossible;
+    h.jump = jump;
   };
 
   // One row through the signal check: written now, or held back until a later row decides.
@@ -372,12 +375,23 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     if (!beyond) limits_suspended = false;
     const bool impossible = beyond && !limits_suspended;
     const double typical_dt = observer_.median_dt();
-    // A row after lost samples is the observer's to judge (its bridge rule, TIMING FAULTS):
-    // the disagreement test applies between rows one step apart, or across rows held back.
-    const bool after_gap = held_count == 0 && observer_.is_gap(t);
+    // A row after more lost samples than a bridge spans is the observer's to judge (it
+    // restarts there, TIMING FAULTS). Across a gap it bridges, the disagreement test applies
+    // with its tolerance grown for the longer interval: a glitch there would otherwise become
+    // the state the observer goes on from.
+    const bool after_gap = held_count == 0 && observer_.is_gap(t) &&
+                           !(t - good_t <= options_.observer.gap_factor * observer_.median_dt());
     auto agrees_with_good = [&](std::string* reason) {
       return !have_good || after_gap ||
              !check.disagree(good_t, good_q.data(), good_dq.data(), t, q.data(), dq.data(), typical_dt, reason);
+    };
+    // One held row whose velocity jumped, and this row's velocity is back on the trend of the
+    // rows before it: a one-row spike of the velocity signal.
+    auto jump_came_back = [&] {
+      if (held_count != 1 || !held[0].jump) return false;
+      const std::vector<double>& b = held[0].values;
+      for (int j = 0; j < n; ++j) held_dq[j] = b[dq_index_[j]];
+      return check.velocity_on_trend(good_t, good_dq.data(), b[t_index_], held_dq.data(), t, dq.data());
     };
     auto agrees_with_last_held = [&] {
       const std::vector<double>& last = held[held_count - 1].values;
@@ -389,11 +403,21 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
                              nullptr);
     };
     if (held_count == 0) {
+      std::string jump_why;
+      const bool jump = have_good && check.velocity_jumps(good_t, good_dq.data(), good_tau.data(), t, q.data(),
+                                                          dq.data(), tau.data(), &jump_why);
       if (!impossible && agrees_with_good(&why)) {
-        process(row, duplicate, nullptr, false);
-        return;
+        if (!jump) {
+          process(row, duplicate, nullptr, false);
+          return;
+        }
+        why = std::move(jump_why);
       }
-      hold(row, impossible, why);
+      hold(row, impossible, why, jump);
+    } else if (!impossible && jump_came_back() && agrees_with_good(nullptr)) {
+      leave_out_held("bridged");
+      process(row, duplicate, nullptr, true);
+      return;
     } else if (!impossible && !held[held_count - 1].impossible && agrees_with_last_held()) {
       // The held rows were real: the sensors saw a fast change together. Asked first, so that
       // a row that agrees with both (an impact within one interval, which the trapezoid over

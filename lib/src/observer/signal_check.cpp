@@ -31,7 +31,7 @@ bool SignalCheckOptions::IsValid(std::string* why) const {
 }
 
 SignalCheck::SignalCheck(const model::Model& model, const SignalCheckOptions& options)
-    : options_(options), joints_(static_cast<std::size_t>(model.nq)) {
+    : model_(model), data_(model), mass_(model.nq, model.nq), options_(options), joints_(static_cast<std::size_t>(model.nq)) {
   std::string why;
   if (!options.IsValid(&why)) throw Error(why);
   const double f = options.limit_factor;
@@ -91,6 +91,84 @@ double SignalCheck::tolerance(int j, double interval, double typical_dt) const {
   return options_.sigmas * std::max(kMadToSigma * J.abs_error.value() * stretch, floor);
 }
 
+double SignalCheck::velocity_tolerance(int j) const {
+  if (curvatures_ < static_cast<std::uint64_t>(kWarmUp)) return kInf;
+  const Joint& J = joints_[static_cast<std::size_t>(j)];
+  // Three velocities rounded independently: their second difference is off by an error of
+  // variance 6 quantum^2 / 12.
+  const double floor = J.dq_quantum * std::sqrt(0.5);
+  return options_.sigmas * std::max(kMadToSigma * J.abs_velocity_curvature.value(), floor);
+}
+
+namespace {
+
+// The departure of dq_b from the trend of the interval (last_dt, last_step) before a, extended
+// over t_b - t_a; and how much larger its noise is than that of one step's d2 (the trend's
+// extrapolation over m steps adds m times the noise of the step it extends: the departure is
+// dq_b - (m + 1) dq_a + m dq_prev, of variance (1 + (m + 1)^2 + m^2) sigma^2 against 6 sigma^2).
+// Whether two consecutive intervals are about one step each: a controller's clock jitters
+// (steps of 0.7 to 1.2 ms at 1 kHz), a lost sample doubles a step, and the trend is not
+// extrapolated across more.
+bool steps_apart(double dt, double last_dt) { return last_dt > 0 && dt > 0 && dt <= 2.5 * last_dt && last_dt <= 2.5 * dt; }
+
+struct Departure {
+  double value;
+  double noise_ratio;
+};
+Departure departure(double last_dt, double last_step, double t_a, double dq_a, double t_b, double dq_b) {
+  const double m = (t_b - t_a) / last_dt;
+  return {dq_b - dq_a - m * last_step, std::sqrt((1 + (m + 1) * (m + 1) + m * m) / 6)};
+}
+
+}  // namespace
+
+double SignalCheck::torque_tolerance(int j) const {
+  if (curvatures_ < static_cast<std::uint64_t>(kWarmUp)) return kInf;
+  return options_.sigmas * kMadToSigma * joints_[static_cast<std::size_t>(j)].abs_torque_curvature.value();
+}
+
+bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* tau_a, double t_b,
+                                 const double* q_b, const double* dq_b, const double* tau_b, std::string* why) {
+  const double dt = t_b - t_a;
+  if (!(t_a == last_t_ && steps_apart(dt, last_dt_))) return false;
+  bool have_mass = false;
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    const int index = static_cast<int>(j);
+    const Departure d = departure(last_dt_, joints_[j].last_dq_step, t_a, dq_a[j], t_b, dq_b[j]);
+    const double tol = velocity_tolerance(index) * d.noise_ratio;
+    if (std::fabs(d.value) <= tol || !std::isfinite(tol)) continue;
+    // The velocity left its trend: by a torque the motor shows, or one too small to matter?
+    if (!have_mass) {
+      mass_matrix(model_, data_, Eigen::Map<const Eigen::VectorXd>(q_b, model_.nq), mass_);
+      have_mass = true;
+    }
+    const double implied = mass_(index, index) * std::fabs(d.value) / dt;
+    const Departure motor = departure(last_dt_, joints_[j].last_tau_step, t_a, tau_a[j], t_b, tau_b[j]);
+    const double motor_tol = torque_tolerance(index) * motor.noise_ratio;
+    if (!(implied > std::fabs(motor.value) + motor_tol)) continue;
+    if (why) *why = joint_name(index) + "'s velocity " + core::short_number(dq_b[j]) + " left its trend by " +
+                    core::short_number(d.value) + " in one row (tolerance " + core::short_number(tol) +
+                    "), a torque of " + core::short_number(implied) + " Nm that the motor does not show";
+    return true;
+  }
+  return false;
+}
+
+bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, const double* dq_b, double t_c,
+                                    const double* dq_c) const {
+  if (!(t_a == last_t_ && last_dt_ > 0 && t_b > t_a && t_c > t_b)) return false;
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    const double step = joints_[j].last_dq_step;
+    const Departure c = departure(last_dt_, step, t_a, dq_a[j], t_c, dq_c[j]);
+    if (!(std::fabs(c.value) <= velocity_tolerance(static_cast<int>(j)) * c.noise_ratio)) return false;
+    const Departure b = departure(last_dt_, step, t_a, dq_a[j], t_b, dq_b[j]);
+    if (std::fabs(b.value) > velocity_tolerance(static_cast<int>(j)) * b.noise_ratio &&
+        !(std::fabs(c.value) < 0.5 * std::fabs(b.value)))
+      return false;
+  }
+  return true;
+}
+
 bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
                            const double* dq_b, double typical_dt, std::string* why) const {
   const double dt = t_b - t_a;
@@ -118,31 +196,47 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
   return false;
 }
 
-void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
-                        const double* dq_b) {
+void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const double* tau_a, double t_b,
+                        const double* q_b, const double* dq_b, const double* tau_b) {
   const double dt = t_b - t_a;
   if (!(dt > 0)) return;
+  const bool continues = intervals_ > 0 && t_a == last_t_;
+  // Only intervals of about one step continue a trend (as velocity_jumps() asks).
+  const bool on_trend = continues && steps_apart(dt, last_dt_);
+  if (on_trend) ++curvatures_;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     Joint& J = joints_[j];
     const double moved = q_b[j] - q_a[j];
     J.abs_error.push(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])));
     const double velocity_step = dq_b[j] - dq_a[j];
-    if (intervals_ > 0 && t_a == last_t_) {
+    if (continues) {
       const double q_curvature = std::fabs(moved - J.last_q_step);
       const double dq_curvature = std::fabs(velocity_step - J.last_dq_step);
       if (q_curvature > 0 && (J.q_quantum == 0 || q_curvature < J.q_quantum)) J.q_quantum = q_curvature;
       if (dq_curvature > 0 && (J.dq_quantum == 0 || dq_curvature < J.dq_quantum)) J.dq_quantum = dq_curvature;
     }
+    // The velocity's departure from the trend, as velocity_jumps() measures it.
+    const double torque_step = tau_b[j] - tau_a[j];
+    if (on_trend) {
+      J.abs_velocity_curvature.push(std::fabs(velocity_step - J.last_dq_step * dt / last_dt_));
+      J.abs_torque_curvature.push(std::fabs(torque_step - J.last_tau_step * dt / last_dt_));
+    }
     J.last_q_step = moved;
     J.last_dq_step = velocity_step;
+    J.last_tau_step = torque_step;
   }
   last_t_ = t_b;
+  last_dt_ = dt;
   ++intervals_;
   // The median of the window moves slowly: recomputing it every 8 intervals (and through the
   // warm-up) keeps the hot path cheap.
   if (intervals_ <= kWarmUp || ++since_update_ >= 8) {
     since_update_ = 0;
-    for (Joint& J : joints_) J.abs_error.update();
+    for (Joint& J : joints_) {
+      J.abs_error.update();
+      J.abs_velocity_curvature.update();
+      J.abs_torque_curvature.update();
+    }
   }
 }
 

@@ -17,6 +17,20 @@
 // when rows in between are left out. Besides, a value beyond the URDF's limits by more than
 // `limit_factor` (positions about the middle of their range, velocities and efforts about 0),
 // or a position change faster than limit_factor times the velocity limit, cannot be physical.
+//
+// At high sample rates the positions cannot see a velocity that is wrong for one row (a spike
+// of 0.09 rad/s moves the trapezoid by 4.5e-5 rad at 1 kHz, half an encoder count of 2^16 per
+// turn), yet the momentum jumps by M times it. The velocity has a redundancy of its own: an arm
+// is driven by forces that cannot reverse within one sample, so its velocity is smooth on the
+// scale of a row, and its second difference d2 = dq_c - 2 dq_b + dq_a is noise. A row whose
+// velocity leaves its trend by more than `sigmas` robust standard deviations of d2 (learnt like
+// e, floored by the velocity's quantisation) and that no motor torque shows is a jump: the
+// torque its departure s implies, M_jj s / dt, must exceed the motor torque's own departure
+// from its trend plus that torque's tolerance (learnt the same way). A jump is a fault when the
+// next row's velocity is back on the trend of the rows before it, and real (an impact, which
+// moves the velocity without the motor and leaves it moved) when it is not. A real robot's
+// stick-slip at rest reverses its velocity within a row too, but with the current that drives
+// it, and a departure of 1e-5 rad/s implies no torque worth a judgement.
 #pragma once
 
 #include <cstdint>
@@ -24,6 +38,7 @@
 #include <vector>
 
 #include "momentum/core/statistics.hpp"
+#include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
 
 namespace momentum::observer {
@@ -31,8 +46,9 @@ namespace momentum::observer {
 struct SignalCheckOptions {
   // Off: every row is taken at its word (mo-observe --no-signal-check).
   bool enabled = true;
-  // Tolerance of the position-velocity disagreement, in robust standard deviations of its own
-  // running distribution (> 0). Real velocity signals are filtered and lag the positions a
+  // Tolerance of the position-velocity disagreement and of a velocity's (and motor torque's)
+  // departure from its trend, in robust standard deviations of their own running
+  // distributions (> 0). Real velocity signals are filtered and lag the positions a
   // little, so the distribution has heavier tails than a normal one: 10 leaves the ordinary
   // tail alone (on the UR10e development logs no row is excluded) and still sees a velocity
   // that jumps by a few hundredths of a rad/s for one row.
@@ -74,16 +90,41 @@ class SignalCheck {
 
   // Learns from an accepted interval a -> b: its |e| per joint enter the running scale, and,
   // when it continues the last interval learnt, the second differences of position and
-  // velocity the quantisation estimate.
-  void learn(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
-             const double* dq_b);
+  // velocity the quantisation estimate, and those of velocity and motor torque their scales.
+  void learn(double t_a, const double* q_a, const double* dq_a, const double* tau_a, double t_b,
+             const double* q_b, const double* dq_b, const double* tau_b);
 
   // Tolerance of joint j (0-based) over an interval of `interval` s, rad (m): +inf before ready().
   double tolerance(int j, double interval, double typical_dt) const;
 
+  // Whether row b's velocity leaves the trend of the last interval learnt (which must end at
+  // t_a, with b about one step later: within 2.5 times that interval and at least 0.4 times it) by more than its
+  // tolerance on some joint, by a torque that the motor torque does not show (see above);
+  // false when that is not so or cannot be judged (not ready, a gap, a row left out in
+  // between). When it jumps and `why` is non-null, it says on which joint and by how much.
+  // q, dq, tau: nq values each (rad, rad/s, Nm).
+  bool velocity_jumps(double t_a, const double* dq_a, const double* tau_a, double t_b, const double* q_b,
+                      const double* dq_b, const double* tau_b, std::string* why);
+
+  // Whether row c's velocity is back on the trend of the last interval learnt (ending at t_a)
+  // after row b jumped off it: every joint within the jump tolerance, grown for the longer
+  // extrapolation, and nearer the trend than half of b's departure (an impact decelerates the
+  // arm over several rows, each further off the trend than the last). Back on the trend, the
+  // row in between was a fault of the velocity signal.
+  bool velocity_on_trend(double t_a, const double* dq_a, double t_b, const double* dq_b, double t_c,
+                         const double* dq_c) const;
+
+  // Tolerance of the velocity's departure from its trend for joint j (0-based) one step on,
+  // rad/s (m/s): +inf before ready().
+  double velocity_tolerance(int j) const;
+
  private:
   struct Joint {
     core::RunningMedian<kWindow> abs_error;
+    // |d2| of the velocity and of the motor torque over pairs of consecutive intervals learnt.
+    core::RunningMedian<kWindow> abs_velocity_curvature;
+    core::RunningMedian<kWindow> abs_torque_curvature;
+    double last_tau_step = 0;  // Nm
     // Quantisation steps: the smallest nonzero second difference seen (of consecutive
     // intervals), which is a multiple of the step for a quantised signal and as small as the
     // motion's own curvature for a fine one; 0 none yet. rad, rad/s.
@@ -93,10 +134,18 @@ class SignalCheck {
     double lower = 0, upper = 0, velocity = 0, effort = 0;  // bounds with limit_factor
     double velocity_limit = 0;                              // the URDF's, times limit_factor
   };
+  // Tolerance of the motor torque's departure from its trend one step on, Nm.
+  double torque_tolerance(int j) const;
+
+  const model::Model& model_;
+  model::Data data_;           // scratch of the mass matrix
+  Eigen::MatrixXd mass_;       // M(q) of the last row judged
   SignalCheckOptions options_;
   std::vector<Joint> joints_;
   std::uint64_t intervals_ = 0;
   double last_t_ = 0;  // end of the last interval learnt: the next one continues it when equal
+  double last_dt_ = 0;  // its length, s
+  std::uint64_t curvatures_ = 0;  // pairs of consecutive intervals learnt
   int since_update_ = 0;
 };
 
