@@ -102,23 +102,21 @@ double SignalCheck::velocity_tolerance(int j) const {
 
 namespace {
 
-// The departure of dq_b from the trend of the interval (last_dt, last_step) before a, extended
-// over t_b - t_a; and how much larger its noise is than that of one step's d2 (the trend's
-// extrapolation over m steps adds m times the noise of the step it extends: the departure is
-// dq_b - (m + 1) dq_a + m dq_prev, of variance (1 + (m + 1)^2 + m^2) sigma^2 against 6 sigma^2).
 // Whether two consecutive intervals are about one step each: a controller's clock jitters
 // (steps of 0.7 to 1.2 ms at 1 kHz), a lost sample doubles a step, and the trend is not
 // extrapolated across more.
 bool steps_apart(double dt, double last_dt) { return last_dt > 0 && dt > 0 && dt <= 2.5 * last_dt && last_dt <= 2.5 * dt; }
 
-struct Departure {
-  double value;
+// A trend extended over m = (t_b - t_a) / last_dt steps: the departure of a signal x_b from
+// it is x_b - x_a - m (x_a - x_prev), and its noise is larger than that of one step's second
+// difference by `noise_ratio` (variance (1 + (m + 1)^2 + m^2) sigma^2 against 6 sigma^2).
+struct Extension {
+  double m;
   double noise_ratio;
+  Extension(double last_dt, double t_a, double t_b)
+      : m((t_b - t_a) / last_dt), noise_ratio(std::sqrt((1 + (m + 1) * (m + 1) + m * m) / 6)) {}
+  double departure(double last_step, double x_a, double x_b) const { return x_b - x_a - m * last_step; }
 };
-Departure departure(double last_dt, double last_step, double t_a, double dq_a, double t_b, double dq_b) {
-  const double m = (t_b - t_a) / last_dt;
-  return {dq_b - dq_a - m * last_step, std::sqrt((1 + (m + 1) * (m + 1) + m * m) / 6)};
-}
 
 }  // namespace
 
@@ -131,23 +129,31 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
                                  const double* q_b, const double* dq_b, const double* tau_b, std::string* why) {
   const double dt = t_b - t_a;
   if (!(t_a == last_t_ && steps_apart(dt, last_dt_))) return false;
+  const Extension trend(last_dt_, t_a, t_b);
   bool have_mass = false;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const int index = static_cast<int>(j);
-    const Departure d = departure(last_dt_, joints_[j].last_dq_step, t_a, dq_a[j], t_b, dq_b[j]);
-    const double tol = velocity_tolerance(index) * d.noise_ratio;
-    if (std::fabs(d.value) <= tol || !std::isfinite(tol)) continue;
+    Joint& J = joints_[j];
+    const double d = trend.departure(J.last_dq_step, dq_a[j], dq_b[j]);
+    double tol = velocity_tolerance(index) * trend.noise_ratio;
+    if (std::fabs(d) <= tol || !std::isfinite(tol)) continue;
+    // The scales are recomputed every 64 intervals (a median of 128 values costs about as much
+    // as the rest of a row): brought up to date before a row is judged on them.
+    J.abs_velocity_curvature.update();
+    J.abs_torque_curvature.update();
+    tol = velocity_tolerance(index) * trend.noise_ratio;
+    if (std::fabs(d) <= tol) continue;
     // The velocity left its trend: by a torque the motor shows, or one too small to matter?
     if (!have_mass) {
       mass_matrix(model_, data_, Eigen::Map<const Eigen::VectorXd>(q_b, model_.nq), mass_);
       have_mass = true;
     }
-    const double implied = mass_(index, index) * std::fabs(d.value) / dt;
-    const Departure motor = departure(last_dt_, joints_[j].last_tau_step, t_a, tau_a[j], t_b, tau_b[j]);
-    const double motor_tol = torque_tolerance(index) * motor.noise_ratio;
-    if (!(implied > std::fabs(motor.value) + motor_tol)) continue;
+    const double implied = mass_(index, index) * std::fabs(d) / dt;
+    const double motor = trend.departure(J.last_tau_step, tau_a[j], tau_b[j]);
+    const double motor_tol = torque_tolerance(index) * trend.noise_ratio;
+    if (!(implied > std::fabs(motor) + motor_tol)) continue;
     if (why) *why = joint_name(index) + "'s velocity " + core::short_number(dq_b[j]) + " left its trend by " +
-                    core::short_number(d.value) + " in one row (tolerance " + core::short_number(tol) +
+                    core::short_number(d) + " in one row (tolerance " + core::short_number(tol) +
                     "), a torque of " + core::short_number(implied) + " Nm that the motor does not show";
     return true;
   }
@@ -157,14 +163,14 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
 bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, const double* dq_b, double t_c,
                                     const double* dq_c) const {
   if (!(t_a == last_t_ && last_dt_ > 0 && t_b > t_a && t_c > t_b)) return false;
+  const Extension to_b(last_dt_, t_a, t_b), to_c(last_dt_, t_a, t_c);
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const double step = joints_[j].last_dq_step;
-    const Departure c = departure(last_dt_, step, t_a, dq_a[j], t_c, dq_c[j]);
-    if (!(std::fabs(c.value) <= velocity_tolerance(static_cast<int>(j)) * c.noise_ratio)) return false;
-    const Departure b = departure(last_dt_, step, t_a, dq_a[j], t_b, dq_b[j]);
-    if (std::fabs(b.value) > velocity_tolerance(static_cast<int>(j)) * b.noise_ratio &&
-        !(std::fabs(c.value) < 0.5 * std::fabs(b.value)))
-      return false;
+    const double tol = velocity_tolerance(static_cast<int>(j));
+    const double c = to_c.departure(step, dq_a[j], dq_c[j]);
+    if (!(std::fabs(c) <= tol * to_c.noise_ratio)) return false;
+    const double b = to_b.departure(step, dq_a[j], dq_b[j]);
+    if (std::fabs(b) > tol * to_b.noise_ratio && !(std::fabs(c) < 0.5 * std::fabs(b))) return false;
   }
   return true;
 }
@@ -229,11 +235,15 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   last_dt_ = dt;
   ++intervals_;
   // The median of the window moves slowly: recomputing it every 8 intervals (and through the
-  // warm-up) keeps the hot path cheap.
+  // warm-up) keeps the hot path cheap. Those of the trends every 64, and when a row would be
+  // judged on them (velocity_jumps()).
   if (intervals_ <= kWarmUp || ++since_update_ >= 8) {
     since_update_ = 0;
+    for (Joint& J : joints_) J.abs_error.update();
+  }
+  if (on_trend && (curvatures_ <= static_cast<std::uint64_t>(kWarmUp) || ++since_trend_update_ >= 64)) {
+    since_trend_update_ = 0;
     for (Joint& J : joints_) {
-      J.abs_error.update();
       J.abs_velocity_curvature.update();
       J.abs_torque_curvature.update();
     }

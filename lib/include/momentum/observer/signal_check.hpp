@@ -147,6 +147,7 @@ class SignalCheck {
   double last_dt_ = 0;  // its length, s
   std::uint64_t curvatures_ = 0;  // pairs of consecutive intervals learnt
   int since_update_ = 0;
+  int since_trend_update_ = 0;
 };
 
 }  // namespace momentum::observer
