@@ -411,3 +411,98 @@ TEST(Classify, RiseWeighsWhenTheWidthAloneCannotSeparate) {
 }
 
 }  // namespace
+
+namespace {
+
+// The probabilities from costs and unknowns, worked out by hand: log evidence -cost / 2s -
+// k / 2 ln n, divided by the temperature, normalised.
+TEST(Locate, CandidateProbabilitiesFollowTheEvidence) {
+  std::vector<mc::CandidateFit> c = {{3, 10.0, 3, false, 0.0, 0.0}, {4, 4.0, 4, false, 0.0, 0.0}};
+  const double n = 20, s = 2;
+  auto expected = [&](double temperature) {
+    const double e3 = (-10.0 / (2 * s) - 1.5 * std::log(n)) / temperature;
+    const double e4 = (-4.0 / (2 * s) - 2.0 * std::log(n)) / temperature;
+    return std::exp(e3) / (std::exp(e3) + std::exp(e4));
+  };
+  mc::candidate_probabilities(c, n, s);
+  EXPECT_NEAR(c[0].probability, expected(1), 1e-12);
+  EXPECT_NEAR(c[0].probability + c[1].probability, 1, 1e-12);
+  mc::candidate_probabilities(c, n, s, 4.0);
+  EXPECT_NEAR(c[0].probability, expected(4), 1e-12);
+  // Costs far apart: no underflow to 0 / 0.
+  std::vector<mc::CandidateFit> far = {{1, 1e5, 3, false, 0.0, 0.0}, {2, 2e5, 3, false, 0.0, 0.0}};
+  mc::candidate_probabilities(far, 100, 1);
+  EXPECT_EQ(far[0].probability, 1.0);
+  EXPECT_EQ(far[1].probability, 0.0);
+}
+
+TEST(Locate, LinkSetHoldsTheChosenLinkAndReachesTheConfidence) {
+  const std::vector<mc::CandidateFit> c = {{1, 0, 0, false, 0, 0.5}, {2, 0, 0, false, 0, 0.3}, {3, 0, 0, false, 0, 0.2}};
+  auto set = mc::link_set(c, 0.9);
+  EXPECT_EQ(set.links, (std::vector<int>{1, 2, 3}));
+  EXPECT_NEAR(set.probability, 1.0, 1e-12);
+  set = mc::link_set(c, 0.75);
+  EXPECT_EQ(set.links, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(set.probability, 0.8, 1e-12);
+  set = mc::link_set(c, 0.5);  // reached by the first exactly
+  EXPECT_EQ(set.links, (std::vector<int>{1}));
+  set = mc::link_set(c, 0.6, 3);  // the reported link first, then the most probable
+  EXPECT_EQ(set.links, (std::vector<int>{1, 3}));
+  EXPECT_NEAR(set.probability, 0.7, 1e-12);
+  EXPECT_TRUE(mc::link_set({}, 0.9).links.empty());
+}
+
+// A push on link 5's segment lies on joint 5's axis: it does not turn joint 5, and link 4 (whose
+// end is joint 5's origin) explains the residuals as well from the same line of action. The
+// joints cannot tell the two apart, so the 90% set holds both; a push 0.05 m off the axis can
+// be told, and its set is link 5 alone.
+TEST(Locate, APointTheJointsCannotPlaceComesOutAsASet) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const int body = 4;
+  const Eigen::Vector3d along = segments[body].to - segments[body].from;
+  const double sigma = 0.05;
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  const Eigen::Vector3d force(30.0, -50.0, 20.0);
+  const Eigen::Vector3d on_axis = segments[body].from;
+  const mc::Location ambiguous =
+      locator.locate(push(model, body, on_axis, force, sigma, 7), 3, 0, mc::LinkChoice::proximal_accepted);
+  const auto set = mc::link_set(ambiguous.candidates, 0.9, ambiguous.link);
+  EXPECT_EQ(set.links, (std::vector<int>{3, 4}));
+  const Eigen::Vector3d off_axis = segments[body].from + 0.6 * along + 0.05 * along.normalized().unitOrthogonal();
+  const mc::Location clear =
+      locator.locate(push(model, body, off_axis, force, sigma, 7), 3, 0, mc::LinkChoice::proximal_accepted);
+  EXPECT_EQ(mc::link_set(clear.candidates, 0.9, clear.link).links, (std::vector<int>{5}));
+}
+
+TEST(Classify, CollisionProbabilityFromTheRule) {
+  mc::ClassRule rule;
+  rule.width = 0.1;
+  EXPECT_TRUE(std::isnan(mc::collision_probability(rule, 0.05, NAN, {})));  // no slope: none stated
+  rule.slope = 2;
+  EXPECT_NEAR(mc::collision_probability(rule, 0.1, NAN, {}), 0.5, 1e-12);
+  EXPECT_NEAR(mc::collision_probability(rule, 0.2, NAN, {}), 1 / (1 + 4.0), 1e-12);
+  EXPECT_NEAR(mc::collision_probability(rule, 0.05, NAN, {}), 1 / (1 + 0.25), 1e-12);
+  rule.collision_level = {10, 10};
+  rule.level_probability = 0.9;
+  const std::vector<double> over = {11, 0};
+  EXPECT_EQ(mc::collision_probability(rule, 0.2, NAN, over), 0.9);
+  // Learnt: the slope is positive, and the probability falls with the width.
+  std::vector<mc::ClassExample> examples;
+  for (int i = 0; i < 20; ++i) examples.push_back({0.03 + 0.004 * i, {1, 1}, true, NAN});
+  for (int i = 0; i < 20; ++i) examples.push_back({0.09 + 0.02 * i, {1, 1}, false, NAN});
+  for (int i = 0; i < 3; ++i) examples.push_back({0.1 + 0.01 * i, {1, 1}, true, NAN});  // overlap
+  const mc::ClassRule learnt = mc::learn_rule(examples, 2);
+  EXPECT_GT(learnt.slope, 0);
+  EXPECT_GT(mc::collision_probability(learnt, 0.03, NAN, {}), 0.8);
+  EXPECT_LT(mc::collision_probability(learnt, 0.4, NAN, {}), 0.2);
+  // It goes through the profile and back.
+  nlohmann::json document = {{"thresholds", {{"mu", {{"classify", mc::rule_to_json(learnt)}}}}}};
+  const auto read = mc::rule_from_profile(document, "mu", 2, "p.json");
+  ASSERT_TRUE(read.has_value());
+  EXPECT_EQ(read->slope, learnt.slope);
+  document["thresholds"]["mu"]["classify"]["slope"] = -1;
+  EXPECT_THROW(mc::rule_from_profile(document, "mu", 2, "p.json"), momentum::Error);
+}
+
+}  // namespace

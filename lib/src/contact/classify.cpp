@@ -58,6 +58,8 @@ bool ClassRule::IsValid(std::string* why) const {
     return fail("rise_reference must be a positive number of seconds");
   for (std::size_t j = 0; j < collision_level.size(); ++j)
     if (!(collision_level[j] > 0)) return fail("collision level of joint " + std::to_string(j + 1) + " must be positive");
+  if (!(slope >= 0) || !std::isfinite(slope)) return fail("slope must be 0 or more");
+  if (!(level_probability > 0 && level_probability <= 1)) return fail("level_probability must be in (0, 1]");
   return true;
 }
 
@@ -74,7 +76,43 @@ EventClass classify(const ClassRule& rule, double width, double rise, std::span<
   return weighted < rule.width ? EventClass::collision : EventClass::contact;
 }
 
+double collision_probability(const ClassRule& rule, double width, double rise, std::span<const double> peaks) {
+  if (!(rule.slope > 0)) return NAN;
+  for (std::size_t j = 0; j < std::min(peaks.size(), rule.collision_level.size()); ++j)
+    if (std::abs(peaks[j]) > rule.collision_level[j]) return rule.level_probability;
+  const double weighted = rise_weighted_width(rule, width, rise);
+  if (std::isnan(weighted)) return NAN;
+  return 1 / (1 + std::pow(std::max(weighted, 1e-12) / rule.width, rule.slope));
+}
+
 namespace {
+
+// The slope b of P(collision) = 1 / (1 + exp(b z)) over z = ln(rise-weighted width / cut):
+// Newton's method on the standardised z (divided by its root mean square) with a unit normal
+// prior on the slope, as the rise's weight. 0 with fewer than 2 examples.
+double learn_slope(const std::vector<std::pair<double, bool>>& widths, double cut) {
+  std::vector<double> z;
+  for (const auto& [w, collision] : widths) z.push_back(std::log(w / cut));
+  if (z.size() < 2) return 0;
+  double rms = 0;
+  for (double v : z) rms += v * v / static_cast<double>(z.size());
+  rms = std::sqrt(rms);
+  if (!(rms > 0)) return 0;
+  double b = 0;  // of the standardised z, for P(collision) = 1 / (1 + exp(b z))
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    double gradient = -b, hessian = 1;
+    for (std::size_t i = 0; i < z.size(); ++i) {
+      const double x = -z[i] / rms;  // P(collision) = sigma(b x)
+      const double p = 1 / (1 + std::exp(-b * x));
+      gradient += ((widths[i].second ? 1.0 : 0.0) - p) * x;
+      hessian += p * (1 - p) * x * x;
+    }
+    const double step = gradient / hessian;
+    b += step;
+    if (std::abs(step) < 1e-12) break;
+  }
+  return std::max(0.0, b / rms);
+}
 
 // The rise's weight against the width's in a logistic regression of the class (collision 1)
 // on (log width, log rise), standardised, with a unit normal prior on the two slopes (Newton's
@@ -161,12 +199,21 @@ ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints)
     return static_cast<double>(right) / static_cast<double>(examples.size());
   };
   rule.accuracy = accuracy(rule);
+  rule.slope = learn_slope(widths, rule.width);
   // The levels only where they classify the examples better than the width alone: the largest
   // contact of a campaign is a poor bound on the next campaign's, so a level that teaches
   // nothing here would only call a firm push a collision there.
   ClassRule with_levels = rule;
   if (std::all_of(level.begin(), level.end(), [](double v) { return v > 0; })) with_levels.collision_level = level;
   with_levels.accuracy = accuracy(with_levels);
+  int over = 0, over_collisions = 0;
+  for (const auto& e : examples)
+    for (std::size_t j = 0; j < std::min(joints, e.peaks.size()); ++j)
+      if (!with_levels.collision_level.empty() && std::abs(e.peaks[j]) > with_levels.collision_level[j]) {
+        ++over, over_collisions += e.collision ? 1 : 0;
+        break;
+      }
+  with_levels.level_probability = (over_collisions + 1.0) / (over + 2.0);
   return with_levels.accuracy > rule.accuracy ? with_levels : rule;
 }
 
@@ -188,6 +235,8 @@ std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::
     rule.contacts = found->value("contacts", 0);
     rule.collisions = found->value("collisions", 0);
     rule.accuracy = found->value("accuracy", 0.0);
+    rule.slope = found->value("slope", 0.0);
+    rule.level_probability = found->value("level_probability", 1.0);
     std::string why;
     if (!rule.IsValid(&why)) throw Error(why);
     if (!rule.collision_level.empty() && rule.collision_level.size() != joints)
@@ -210,7 +259,11 @@ nlohmann::json rule_to_json(const ClassRule& rule) {
     j["rise_exponent"] = rule.rise_exponent;
     j["rise_reference"] = rule.rise_reference;
   }
-  if (!rule.collision_level.empty()) j["collision"] = rule.collision_level;
+  if (!rule.collision_level.empty()) {
+    j["collision"] = rule.collision_level;
+    j["level_probability"] = rule.level_probability;
+  }
+  if (rule.slope > 0) j["slope"] = rule.slope;
   return j;
 }
 

@@ -56,6 +56,12 @@ struct ClassRule {
   double rise_exponent = 0;             // >= 0: how much a slow rise widens the pulse; 0: width alone
   double rise_reference = 0;            // s, > 0 when rise_exponent > 0: the rise at which width counts as is
   std::vector<double> collision_level;  // Nm per joint, > 0; empty: no level
+  // The class's probability (collision_probability): the logistic slope on ln(rise-weighted
+  // width / width), >= 0 (0: the rule states no probability, as a profile from before it), and
+  // the share of collisions among the learning examples over a collision level (Laplace's rule
+  // of succession), in (0, 1].
+  double slope = 0;
+  double level_probability = 1;
   // What it was learnt from, for reports.
   int contacts = 0, collisions = 0;
   double accuracy = 0;  // on its own examples, 0..1
@@ -71,6 +77,11 @@ double rise_weighted_width(const ClassRule& rule, double width, double rise);
 
 // The class of a finished event: its pulse width and rise (s) and per-joint peaks (Nm).
 EventClass classify(const ClassRule& rule, double width, double rise, std::span<const double> peaks);
+
+// The probability that an event is a collision: level_probability when a joint is over its
+// collision level, else 1 / (1 + (rise-weighted width / width)^slope) (0.5 at the cut). NaN when
+// the rule has no slope or the width is NaN.
+double collision_probability(const ClassRule& rule, double width, double rise, std::span<const double> peaks);
 
 // One labelled example: a detected event's pulse width, peaks and rise, and whether the truth
 // calls it a collision.
@@ -89,7 +100,10 @@ struct ClassExample {
 // classifies the examples best (the geometric middle between the two neighbouring values
 // where the accuracy is highest; ties: the widest gap). Per joint the largest peak of a
 // contact as its collision level, kept only when the levels classify the examples better
-// than the cut alone. Throws momentum::Error without at least one example of each class.
+// than the cut alone. The slope: the maximum a posteriori of a logistic regression of the class
+// on ln(rise-weighted width / width) through the cut (no intercept: the probability is 0.5
+// where the rule turns), the slope of the standardised feature with a unit normal prior as
+// above. Throws momentum::Error without at least one example of each class.
 ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints);
 
 // Reads thresholds/<signal>/classify of a profile document; nullopt when absent. Throws
