@@ -338,8 +338,10 @@ TEST(Classify, PulseWidthAndLearntRule) {
     samples.push_back(s);
   }
   const mc::PulseShape shape = mc::pulse_shape(samples, 0.0, Eigen::VectorXd::Ones(1));
-  EXPECT_NEAR(shape.width, 0.030, 1e-12);
-  EXPECT_NEAR(shape.rise, 0.020, 1e-12);
+  // Half the peak (5) is crossed a ninth of the way from 1 to 10 at 19..20 ms and from 10 to 1
+  // at 50..51 ms; 90% (9) eight ninths of the way at 19..20 ms.
+  EXPECT_NEAR(shape.width, 0.001 * ((50 + 5.0 / 9) - (19 + 4.0 / 9)), 1e-12);
+  EXPECT_NEAR(shape.rise, 0.001 * (19 + 8.0 / 9), 1e-12);
   EXPECT_TRUE(shape.over);
 
   // The 0.4 s collision is wider than a contact: only a level (over the contacts' largest peak
@@ -503,6 +505,40 @@ TEST(Classify, CollisionProbabilityFromTheRule) {
   EXPECT_EQ(read->slope, learnt.slope);
   document["thresholds"]["mu"]["classify"]["slope"] = -1;
   EXPECT_THROW(mc::rule_from_profile(document, "mu", 2, "p.json"), momentum::Error);
+}
+
+}  // namespace
+
+namespace {
+
+// The same pulse (a raised cosine of 0.12 s, rising from t = 0.05 s, on a noise-free residual)
+// sampled at 125 Hz and at 1 kHz, at several phases of the sampling clock: its width and rise
+// agree within 1 ms, so that a rule learnt at one rate cuts at the same place at the other.
+// Counted in whole samples the 125 Hz width was short by up to 8 ms.
+TEST(Classify, PulseShapeIsTheSameAtEveryRate) {
+  auto shape_at = [](double rate, double phase) {
+    std::vector<mc::ResidualSample> samples;
+    for (int k = 0; k < static_cast<int>(0.4 * rate); ++k) {
+      mc::ResidualSample s;
+      s.t = (k + phase) / rate;
+      s.q = Eigen::VectorXd::Zero(2);
+      const double x = (s.t - 0.05) / 0.12;
+      const double pulse = x > 0 && x < 1 ? 0.5 * (1 - std::cos(2 * M_PI * x)) : 0.0;
+      s.r = Eigen::Vector2d(30 * pulse, -10 * pulse);
+      samples.push_back(s);
+    }
+    return mc::pulse_shape(samples, 0.05, Eigen::VectorXd::Ones(2));
+  };
+  // Closed form: above half between x = 1/4 and 3/4 (0.06 s); 90% first at x = acos(-0.8) / 2pi.
+  const double width = 0.06, rise = 0.12 * std::acos(-0.8) / (2 * M_PI);
+  for (const double phase : {0.0, 0.3, 0.7}) {
+    for (const double rate : {125.0, 1000.0}) {
+      const mc::PulseShape shape = shape_at(rate, phase);
+      EXPECT_NEAR(shape.width, width, 1e-3) << rate << " Hz, phase " << phase;
+      EXPECT_NEAR(shape.rise, rise, 1e-3) << rate << " Hz, phase " << phase;
+      EXPECT_TRUE(shape.over);
+    }
+  }
 }
 
 }  // namespace

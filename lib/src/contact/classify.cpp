@@ -28,19 +28,37 @@ std::optional<EventClass> parse_class(std::string_view text) {
 PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight) {
   // Called on every row of an undecided event (EventContact::decide): no allocation, the
   // strengths are computed again in the second pass instead of kept.
+  //
+  // The crossings of 90% and half the peak are placed between the two samples around them, by
+  // linear interpolation, not at the first sample beyond: a width counted in whole samples is
+  // short by up to a sample period (8 ms at 125 Hz, 1 ms at 1 kHz), and so is a rise long by
+  // up to one, and a rule learnt at one rate would cut elsewhere at another.
   PulseShape shape;
   if (samples.empty()) return shape;
   auto strength = [&](const ResidualSample& s) { return weight.cwiseProduct(s.r).norm(); };
   double peak = 0;
   for (const auto& s : samples) peak = std::max(peak, strength(s));
-  double t_last_half = NAN, last = 0;
+  // The time at which the strength crosses `level` between (t0, a) and (t1, b).
+  auto crossing = [](double t0, double a, double t1, double b, double level) {
+    return b != a ? t0 + (t1 - t0) * std::clamp((level - a) / (b - a), 0.0, 1.0) : t1;
+  };
+  double t_last_half = NAN, last = 0, previous = 0, t_previous = NAN;
+  bool above = false;  // the previous sample was at or above half the peak
   for (const auto& s : samples) {
     last = strength(s);
-    if (std::isnan(shape.rise) && last >= 0.9 * peak) shape.rise = std::max(0.0, s.t - t_onset);
+    const bool first = std::isnan(t_previous);
+    if (std::isnan(shape.rise) && last >= 0.9 * peak)
+      shape.rise = std::max(0.0, (first ? s.t : crossing(t_previous, previous, s.t, last, 0.9 * peak)) - t_onset);
     if (last >= 0.5 * peak) {
-      if (std::isnan(shape.t_first_half)) shape.t_first_half = s.t;
+      if (std::isnan(shape.t_first_half))
+        shape.t_first_half = first ? s.t : crossing(t_previous, previous, s.t, last, 0.5 * peak);
       t_last_half = s.t;
+    } else if (above) {
+      t_last_half = crossing(t_previous, previous, s.t, last, 0.5 * peak);
     }
+    above = last >= 0.5 * peak;
+    previous = last;
+    t_previous = s.t;
   }
   shape.width = t_last_half - shape.t_first_half;
   shape.over = last < 0.5 * peak;
