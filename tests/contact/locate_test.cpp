@@ -542,3 +542,33 @@ TEST(Classify, PulseShapeIsTheSameAtEveryRate) {
 }
 
 }  // namespace
+
+namespace {
+
+// An impact (a raised cosine of 0.06 s and 30 Nm) followed 0.1 s later by the arm's reaction
+// (one of 0.3 s and 20 Nm, over half the impact's peak): the width is the impact's lobe, 0.03 s,
+// not the 0.4 s from the impact's first half to the reaction's last.
+TEST(Classify, TheWidthIsTheLobeAroundThePeak) {
+  std::vector<mc::ResidualSample> samples;
+  auto cosine = [](double t, double start, double length) {
+    const double x = (t - start) / length;
+    return x > 0 && x < 1 ? 0.5 * (1 - std::cos(2 * M_PI * x)) : 0.0;
+  };
+  for (int k = 0; k < 1000; ++k) {
+    mc::ResidualSample s;
+    s.t = 0.001 * k;
+    s.q = Eigen::VectorXd::Zero(1);
+    s.r = Eigen::VectorXd::Constant(1, 30 * cosine(s.t, 0.05, 0.06) + 20 * cosine(s.t, 0.21, 0.3));
+    samples.push_back(s);
+  }
+  const mc::PulseShape shape = mc::pulse_shape(samples, 0.05, Eigen::VectorXd::Ones(1));
+  EXPECT_NEAR(shape.width, 0.03, 1e-3);
+  EXPECT_NEAR(shape.t_first_half, 0.05 + 0.015, 1e-3);
+  EXPECT_TRUE(shape.over);
+  // Cut before the impact's lobe ends: not over, its width so far.
+  const mc::PulseShape rising = mc::pulse_shape(std::span(samples).first(85), 0.05, Eigen::VectorXd::Ones(1));
+  EXPECT_FALSE(rising.over);
+  EXPECT_NEAR(rising.width, 0.084 - 0.065, 1e-3);
+}
+
+}  // namespace

@@ -27,7 +27,12 @@ std::optional<EventClass> parse_class(std::string_view text) {
 
 PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight) {
   // Called on every row of an undecided event (EventContact::decide): no allocation, the
-  // strengths are computed again in the second pass instead of kept.
+  // strengths are computed again in the later passes instead of kept.
+  //
+  // The width is that of the lobe around the peak: from where the strength last rose through
+  // half the peak before it to where it first fell back below after it. What comes after
+  // (the arm stopping or backing off, a bounce, seen through the model's errors) is the arm's
+  // reaction, not the contact, and it differs with the controller and the rate.
   //
   // The crossings of 90% and half the peak are placed between the two samples around them, by
   // linear interpolation, not at the first sample beyond: a width counted in whole samples is
@@ -37,31 +42,53 @@ PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, 
   if (samples.empty()) return shape;
   auto strength = [&](const ResidualSample& s) { return weight.cwiseProduct(s.r).norm(); };
   double peak = 0;
-  for (const auto& s : samples) peak = std::max(peak, strength(s));
+  std::size_t at_peak = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if (const double v = strength(samples[i]); v > peak) peak = v, at_peak = i;
   // The time at which the strength crosses `level` between (t0, a) and (t1, b).
   auto crossing = [](double t0, double a, double t1, double b, double level) {
     return b != a ? t0 + (t1 - t0) * std::clamp((level - a) / (b - a), 0.0, 1.0) : t1;
   };
-  double t_last_half = NAN, last = 0, previous = 0, t_previous = NAN;
-  bool above = false;  // the previous sample was at or above half the peak
-  for (const auto& s : samples) {
-    last = strength(s);
-    const bool first = std::isnan(t_previous);
-    if (std::isnan(shape.rise) && last >= 0.9 * peak)
-      shape.rise = std::max(0.0, (first ? s.t : crossing(t_previous, previous, s.t, last, 0.9 * peak)) - t_onset);
-    if (last >= 0.5 * peak) {
-      if (std::isnan(shape.t_first_half))
-        shape.t_first_half = first ? s.t : crossing(t_previous, previous, s.t, last, 0.5 * peak);
-      t_last_half = s.t;
-    } else if (above) {
-      t_last_half = crossing(t_previous, previous, s.t, last, 0.5 * peak);
+  const double half = 0.5 * peak;
+  // The lobe's start: back from the peak to the last sample below half.
+  std::size_t first = at_peak;
+  double below = NAN;
+  while (first > 0) {
+    const double v = strength(samples[first - 1]);
+    if (v < half) {
+      below = v;
+      break;
     }
-    above = last >= 0.5 * peak;
-    previous = last;
-    t_previous = s.t;
+    --first;
+  }
+  const double at_first = strength(samples[first]);
+  shape.t_first_half = first > 0 ? crossing(samples[first - 1].t, below, samples[first].t, at_first, half)
+                                  : samples[first].t;
+  // The rise: to the first crossing of 90% of the peak.
+  double previous = 0;
+  for (std::size_t i = 0; i <= at_peak; ++i) {
+    const double v = strength(samples[i]);
+    if (v >= 0.9 * peak) {
+      shape.rise = std::max(0.0, (i > 0 ? crossing(samples[i - 1].t, previous, samples[i].t, v, 0.9 * peak)
+                                         : samples[i].t) -
+                                     t_onset);
+      break;
+    }
+    previous = v;
+  }
+  // The lobe's end: on from the peak to the first sample below half.
+  double t_last_half = samples.back().t;
+  previous = peak;
+  for (std::size_t i = at_peak + 1; i < samples.size(); ++i) {
+    const double v = strength(samples[i]);
+    if (v < half) {
+      t_last_half = crossing(samples[i - 1].t, previous, samples[i].t, v, half);
+      shape.over = true;
+      break;
+    }
+    previous = v;
   }
   shape.width = t_last_half - shape.t_first_half;
-  shape.over = last < 0.5 * peak;
   return shape;
 }
 

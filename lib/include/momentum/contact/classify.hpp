@@ -42,14 +42,16 @@ std::string_view class_name(EventClass c);
 std::optional<EventClass> parse_class(std::string_view text);
 
 // The shape of a contact's record (samples from the estimated onset, residual minus its level,
-// weighted by `weight`, n), from the weighted norm of each sample, its crossings of 90% and half
-// the peak interpolated linearly between the samples around them (so that the same pulse has
-// the same width and rise at every sample rate). NaN without samples.
+// weighted by `weight`, n), from the weighted norm of each sample: the lobe around its peak (what
+// follows it is the arm's reaction), its crossings of 90% and half the peak interpolated
+// linearly between the samples around them (so that the same pulse has the same width and rise
+// at every sample rate). NaN without samples.
 struct PulseShape {
   double rise = NAN;    // s, from t_onset to where the strength first reaches 90% of the peak
-  double width = NAN;   // s, from where it first reaches half the peak to where it last falls below
-  double t_first_half = NAN;  // s, where the strength first reaches half the peak
-  bool over = false;    // the last sample is below half the peak: the pulse has ended
+  double width = NAN;   // s, the lobe around the peak: from where the strength rose through half
+                        // the peak before it to where it first fell below after it
+  double t_first_half = NAN;  // s, where that lobe rose through half the peak
+  bool over = false;    // the lobe has ended (a sample after the peak is below half of it)
 };
 PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight);
 
