@@ -4,8 +4,9 @@
 // A collision is an impact: a short, broadband pulse of force (a stiff obstacle met at speed,
 // gone as the arm stops or bounces off). A contact is a push or a guiding hand: the force rises
 // and is held for a good part of a second. The features are the pulse's width, the time the
-// contact's residual (weighted over the joints) stays above half its peak (the inverse of its
-// bandwidth, read in the time domain so that it is known as soon as the pulse is over), and its
+// contact's residual (weighted over the joints) stays above half its peak around it (the
+// inverse of its bandwidth, read in the time domain so that it is known as soon as the pulse
+// is over), and its
 // rise time, from the estimated onset to 90% of the peak (an arm pinned against an obstacle
 // holds the force as long as a push does, but it rose as fast as an impact). And
 // libfranka-style levels per joint: a joint over its collision level makes the event a
