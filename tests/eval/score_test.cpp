@@ -273,3 +273,34 @@ TEST(Score, LinkTemperatureFromSimulatedOverconfidence) {
 
 }  // namespace
 }  // namespace momentum::eval
+
+namespace momentum::eval {
+namespace {
+
+// Two contacts with stated uncertainties: the first's force error (5 N) is within its f_sd
+// (6 N) and its point error (0.05 m) outside its p_sd (0.03 m); the second the other way round.
+TEST(Score, CoverageOfTheStatedUncertainties) {
+  const char* truth =
+      "t_onset,t_end,link,clamp,px,py,pz,f_peak\n"
+      "10,10.5,1,0,0,0,0,80\n"
+      "20,21,1,1,0.1,0,0,60\n";
+  const char* events =
+      "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,"
+      "class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen\n"
+      "10,10.05,1,1,onset,1,,,1,,,,,,,,,,,,,,,,\n"
+      "10,10.05,1,1,end,1,10.6,release,1,,,,,,,,6,0.05,0,0,0.03,85,,,point\n"
+      "20,20.05,1,1,onset,2,,,1,,,,,,,,,,,,,,,,\n"
+      "20,20.05,1,1,end,2,21.1,release,1,,,,,,,,2,0.1,0.02,0,0.03,50,,,point\n";
+  const Score s = score(read_truth(write_temp("sd-truth.csv", truth)),
+                        read_detections(write_temp("sd-events.csv", events)), {});
+  ASSERT_EQ(s.detected, 2);
+  EXPECT_EQ(s.identification.force_with_sd, 2);
+  EXPECT_EQ(s.identification.force_covered, 1);
+  EXPECT_EQ(s.identification.point_with_sd, 2);
+  EXPECT_EQ(s.identification.point_covered, 1);
+  EXPECT_NE(format_table(s, false).find("within 1 sd   force 1 of 2 (50.0%), point 1 of 2 (50.0%)"), std::string::npos)
+      << format_table(s, false);
+}
+
+}  // namespace
+}  // namespace momentum::eval

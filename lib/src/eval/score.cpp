@@ -55,6 +55,8 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
     d.event_class = e.contact.event_class;
     d.peak_force = e.contact.peak_force;
     d.point = {e.contact.px, e.contact.py, e.contact.pz};
+    d.force_sd = e.contact.force_sd;
+    d.point_sd = e.contact.point_sd;
     d.width = e.contact.width;
     d.rise = e.contact.rise;
     d.peaks = e.peaks;
@@ -180,6 +182,8 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
         hit->force_error = std::abs(e->peak_force - hit->contact.peak_force);
       if (e->final_link == hit->contact.link && e->point.allFinite() && hit->contact.point.allFinite())
         hit->point_error = (e->point - hit->contact.point).norm();
+      hit->force_sd = e->force_sd;
+      hit->point_sd = e->point_sd;
       hit->link_probabilities = e->link_probabilities;
       hit->link_set = e->link_set;
       hit->set_probability = e->set_probability;
@@ -207,6 +211,14 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     if (!o.event_class.empty()) {
       ++stats.classified;
       stats.class_right += (o.event_class == "collision") == o.contact.clamp;
+    }
+    if (std::isfinite(o.force_error) && std::isfinite(o.force_sd)) {
+      ++stats.force_with_sd;
+      stats.force_covered += o.force_error <= o.force_sd;
+    }
+    if (std::isfinite(o.point_error) && std::isfinite(o.point_sd)) {
+      ++stats.point_with_sd;
+      stats.point_covered += o.point_error <= o.point_sd;
     }
     if (std::isfinite(o.force_error)) {
       e[0].push_back(o.force_error);
@@ -366,6 +378,11 @@ std::string format_table(const Score& s, bool list) {
   if (id.point_error.count)
     line("point error", "median " + fixed(id.point_error.median, 3) + " m, p95 " + fixed(id.point_error.p95, 3) +
                             " m, over " + std::to_string(id.point_error.count) + " (right link, true point known)");
+  if (id.force_with_sd || id.point_with_sd)
+    line("within 1 sd", "force " + std::to_string(id.force_covered) + " of " + std::to_string(id.force_with_sd) + " (" +
+                            percent(id.force_covered, id.force_with_sd) + "), point " +
+                            std::to_string(id.point_covered) + " of " + std::to_string(id.point_with_sd) + " (" +
+                            percent(id.point_covered, id.point_with_sd) + "); about 68% if the stated uncertainties hold");
   const LinkSetStats& ls = s.link_sets;
   if (ls.with_set)
     line("link sets", "truth in " + std::to_string(ls.truth_in_set) + " of " + std::to_string(ls.with_set) + " (" +
@@ -466,7 +483,11 @@ nlohmann::json to_json(const Score& s) {
             {"class_right", i.class_right},
             {"force_error_n", stats_json(i.force_error)},
             {"force_error_percent", stats_json(i.force_error_percent)},
-            {"point_error_m", stats_json(i.point_error)}};
+            {"point_error_m", stats_json(i.point_error)},
+            {"force_with_sd", i.force_with_sd},
+            {"force_covered", i.force_covered},
+            {"point_with_sd", i.point_with_sd},
+            {"point_covered", i.point_covered}};
   };
   j["identification"] = identification_json(s.identification);
   auto calibration_json = [](const Calibration& c) -> nlohmann::json {
