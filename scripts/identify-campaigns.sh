@@ -14,8 +14,10 @@
 #      300 N/mm, held 10-50 ms: collisions), half slow pushes (rise 0.15-0.4 s, held 0.2-0.6 s:
 #      contacts); its events teach mo-calibrate --classes the rule;
 #   3. a test campaign of the same kinds (seed TEST), scored by mo-eval: isolation, class, force
-#      and point errors, per link.
-# Prints one table row per robot and rate, and mo-eval's per-link table.
+#      and point errors, the link sets (truth in the set, mean size), per link.
+# Prints one table row per robot and rate, and mo-eval's per-link table. With two rates or more,
+# then the class rule learnt at each rate applied to the test campaign of each other rate (the
+# rule's width and rise are in seconds: it should hold across rates).
 set -euo pipefail
 robots=paper-arm,ur5,panda rates=125,1000 contacts=30 seeds=2,3 work="" keep=0
 while (($#)); do
@@ -54,7 +56,8 @@ profile_of() {  # robot -> profile path (copied with its URDF into the work fold
 }
 
 kinds=(--mixed)  # half impacts, half slow pushes (mo-sim(1))
-printf '%-10s %5s  %-9s %-8s %-9s %-10s %-10s\n' robot Hz detected isolated class "force err" "point err"
+printf '%-10s %5s  %-9s %-8s %-9s %-10s %-10s %-8s %s\n' robot Hz detected isolated class "force err" "point err" \
+  "in set" "set size"
 IFS=, read -ra robot_list <<< "$robots"
 IFS=, read -ra rate_list <<< "$rates"
 for robot in "${robot_list[@]}"; do
@@ -87,12 +90,39 @@ import json, sys
 s = json.load(open(sys.argv[1]))
 i = s["identification"]
 med = lambda d, f: "-" if d["median"] is None else f.format(d["median"])
+l = s["link_sets"]
+size = "-" if l["mean_size"] is None else f"{l['mean_size']:.2f}"
 print(f"{sys.argv[2]:<10} {sys.argv[3]:>5}  {s['detected']:>2}/{s['contacts']:<6} {s['isolated']:>2}/{s['detected']:<5} "
       f"{i['class_right']:>2}/{i['classified']:<6} {med(i['force_error_percent'], '{:.0f} %'):<10} "
-      f"{med(i['point_error_m'], '{:.3f} m'):<10}")
+      f"{med(i['point_error_m'], '{:.3f} m'):<10} {l['truth_in_set']:>2}/{l['with_set']:<5} {size}")
 EOF
   done
 done
+if ((${#rate_list[@]} > 1)); then
+  echo
+  for robot in "${robot_list[@]}"; do
+    for learnt in "${rate_list[@]}"; do
+      for tested in "${rate_list[@]}"; do
+        [[ $learnt == "$tested" ]] && continue
+        from=$work/$robot-$learnt to=$work/$robot-$tested
+        # The test rate's profile with the class rule of the other rate.
+        python3 - "$from/calibrated.json" "$to/calibrated.json" "$to/cross.json" <<'EOF'
+import json, re, sys
+read = lambda p: json.loads(re.sub(r'(?m)^\s*//.*$', '', open(p).read()))
+source, target = read(sys.argv[1]), read(sys.argv[2])
+for signal, entry in source["thresholds"].items():
+    if isinstance(entry, dict) and "classify" in entry:
+        target["thresholds"][signal]["classify"] = entry["classify"]
+json.dump(target, open(sys.argv[3], "w"), indent=1)
+EOF
+        mo-detect -q -p "$to/cross.json" "$to/test.obs.csv" > "$to/cross.events.csv" || [[ $? == 1 ]]
+        echo "$robot: rule learnt at $learnt Hz on the $tested Hz test campaign:" \
+          "$(mo-eval --truth "$to/test.truth.csv" "$to/cross.events.csv" | grep '^class' | sed 's/^class *//')" \
+          "(its own rule: $(grep '^class' "$to/score.txt" | sed 's/^class *//'))"
+      done
+    done
+  done
+fi
 echo
 for robot in "${robot_list[@]}"; do
   for rate in "${rate_list[@]}"; do

@@ -85,6 +85,9 @@ int main(int argc, char** argv) {
   contact::LocatorOptions locator;
   app.add_option("--link-radius", locator.link_radius, "radius of the cylinder searched for the contact point on links without collision shapes, m (0.05)")
       ->type_name("M");
+  app.add_option("--link-confidence", locator.link_confidence,
+                 "probability the reported link set reaches (0.9)")
+      ->type_name("P");
   app.add_flag("--stats", stats, "print rows, events and per-row latency on stderr at the end");
   std::string format = "csv";
   app.add_option("--format", format, "events as csv (default) or jsonl: one JSON object per row")
@@ -110,7 +113,10 @@ int main(int argc, char** argv) {
       options.open_output = [&](stream::Reader& in) { return tool.open_output(in); };
       std::string why;
       if (!options.IsValid(&why)) throw cli::UsageError(why);
-      if (!locator.IsValid(&why)) throw cli::UsageError("--link-radius: " + why);
+      if (!locator.IsValid(&why))
+        throw cli::UsageError((locator.link_confidence > 0 && locator.link_confidence <= 1 ? "--link-radius: "
+                                                                                             : "--link-confidence: ") +
+                              why);
       if (!no_identify) options.annotator = contact::annotator_factory(locator, tool.profile());
       const auto summary = detect::StreamDetector(options).run(tool.inputs().empty() ? "-" : tool.inputs().front());
       auto at = [&](double t) { return std::isfinite(t) ? " at t=" + core::exact(t) : std::string(" before the first row"); };

@@ -338,8 +338,10 @@ TEST(Classify, PulseWidthAndLearntRule) {
     samples.push_back(s);
   }
   const mc::PulseShape shape = mc::pulse_shape(samples, 0.0, Eigen::VectorXd::Ones(1));
-  EXPECT_NEAR(shape.width, 0.030, 1e-12);
-  EXPECT_NEAR(shape.rise, 0.020, 1e-12);
+  // Half the peak (5) is crossed a ninth of the way from 1 to 10 at 19..20 ms and from 10 to 1
+  // at 50..51 ms; 90% (9) eight ninths of the way at 19..20 ms.
+  EXPECT_NEAR(shape.width, 0.001 * ((50 + 5.0 / 9) - (19 + 4.0 / 9)), 1e-12);
+  EXPECT_NEAR(shape.rise, 0.001 * (19 + 8.0 / 9), 1e-12);
   EXPECT_TRUE(shape.over);
 
   // The 0.4 s collision is wider than a contact: only a level (over the contacts' largest peak
@@ -408,6 +410,165 @@ TEST(Classify, RiseWeighsWhenTheWidthAloneCannotSeparate) {
   } catch (const momentum::Error& e) {
     EXPECT_STREQ(e.what(), "arm.json: thresholds.mu.classify: rise_reference must be a positive number of seconds");
   }
+}
+
+}  // namespace
+
+namespace {
+
+// The probabilities from costs and unknowns, worked out by hand: log evidence -cost / 2s -
+// k / 2 ln n, divided by the temperature, normalised.
+TEST(Locate, CandidateProbabilitiesFollowTheEvidence) {
+  std::vector<mc::CandidateFit> c = {{3, 10.0, 3, false, 0.0, 0.0}, {4, 4.0, 4, false, 0.0, 0.0}};
+  const double n = 20, s = 2;
+  auto expected = [&](double temperature) {
+    const double e3 = (-10.0 / (2 * s) - 1.5 * std::log(n)) / temperature;
+    const double e4 = (-4.0 / (2 * s) - 2.0 * std::log(n)) / temperature;
+    return std::exp(e3) / (std::exp(e3) + std::exp(e4));
+  };
+  mc::candidate_probabilities(c, n, s);
+  EXPECT_NEAR(c[0].probability, expected(1), 1e-12);
+  EXPECT_NEAR(c[0].probability + c[1].probability, 1, 1e-12);
+  mc::candidate_probabilities(c, n, s, 4.0);
+  EXPECT_NEAR(c[0].probability, expected(4), 1e-12);
+  // Costs far apart: no underflow to 0 / 0.
+  std::vector<mc::CandidateFit> far = {{1, 1e5, 3, false, 0.0, 0.0}, {2, 2e5, 3, false, 0.0, 0.0}};
+  mc::candidate_probabilities(far, 100, 1);
+  EXPECT_EQ(far[0].probability, 1.0);
+  EXPECT_EQ(far[1].probability, 0.0);
+}
+
+TEST(Locate, LinkSetHoldsTheChosenLinkAndReachesTheConfidence) {
+  const std::vector<mc::CandidateFit> c = {{1, 0, 0, false, 0, 0.5}, {2, 0, 0, false, 0, 0.3}, {3, 0, 0, false, 0, 0.2}};
+  auto set = mc::link_set(c, 0.9);
+  EXPECT_EQ(set.links, (std::vector<int>{1, 2, 3}));
+  EXPECT_NEAR(set.probability, 1.0, 1e-12);
+  set = mc::link_set(c, 0.75);
+  EXPECT_EQ(set.links, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(set.probability, 0.8, 1e-12);
+  set = mc::link_set(c, 0.5);  // reached by the first exactly
+  EXPECT_EQ(set.links, (std::vector<int>{1}));
+  set = mc::link_set(c, 0.6, 3);  // the reported link first, then the most probable
+  EXPECT_EQ(set.links, (std::vector<int>{1, 3}));
+  EXPECT_NEAR(set.probability, 0.7, 1e-12);
+  EXPECT_TRUE(mc::link_set({}, 0.9).links.empty());
+}
+
+// A push on link 5's segment lies on joint 5's axis: it does not turn joint 5, and link 4 (whose
+// end is joint 5's origin) explains the residuals as well from the same line of action. The
+// joints cannot tell the two apart, so the 90% set holds both; a push 0.05 m off the axis can
+// be told, and its set is link 5 alone.
+TEST(Locate, APointTheJointsCannotPlaceComesOutAsASet) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const int body = 4;
+  const Eigen::Vector3d along = segments[body].to - segments[body].from;
+  const double sigma = 0.05;
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  const Eigen::Vector3d force(30.0, -50.0, 20.0);
+  const Eigen::Vector3d on_axis = segments[body].from;
+  const mc::Location ambiguous =
+      locator.locate(push(model, body, on_axis, force, sigma, 7), 3, 0, mc::LinkChoice::proximal_accepted);
+  const auto set = mc::link_set(ambiguous.candidates, 0.9, ambiguous.link);
+  EXPECT_EQ(set.links, (std::vector<int>{3, 4}));
+  const Eigen::Vector3d off_axis = segments[body].from + 0.6 * along + 0.05 * along.normalized().unitOrthogonal();
+  const mc::Location clear =
+      locator.locate(push(model, body, off_axis, force, sigma, 7), 3, 0, mc::LinkChoice::proximal_accepted);
+  EXPECT_EQ(mc::link_set(clear.candidates, 0.9, clear.link).links, (std::vector<int>{5}));
+}
+
+TEST(Classify, CollisionProbabilityFromTheRule) {
+  mc::ClassRule rule;
+  rule.width = 0.1;
+  EXPECT_TRUE(std::isnan(mc::collision_probability(rule, 0.05, NAN, {})));  // no slope: none stated
+  rule.slope = 2;
+  EXPECT_NEAR(mc::collision_probability(rule, 0.1, NAN, {}), 0.5, 1e-12);
+  EXPECT_NEAR(mc::collision_probability(rule, 0.2, NAN, {}), 1 / (1 + 4.0), 1e-12);
+  EXPECT_NEAR(mc::collision_probability(rule, 0.05, NAN, {}), 1 / (1 + 0.25), 1e-12);
+  rule.collision_level = {10, 10};
+  rule.level_probability = 0.9;
+  const std::vector<double> over = {11, 0};
+  EXPECT_EQ(mc::collision_probability(rule, 0.2, NAN, over), 0.9);
+  // Learnt: the slope is positive, and the probability falls with the width.
+  std::vector<mc::ClassExample> examples;
+  for (int i = 0; i < 20; ++i) examples.push_back({0.03 + 0.004 * i, {1, 1}, true, NAN});
+  for (int i = 0; i < 20; ++i) examples.push_back({0.09 + 0.02 * i, {1, 1}, false, NAN});
+  for (int i = 0; i < 3; ++i) examples.push_back({0.1 + 0.01 * i, {1, 1}, true, NAN});  // overlap
+  const mc::ClassRule learnt = mc::learn_rule(examples, 2);
+  EXPECT_GT(learnt.slope, 0);
+  EXPECT_GT(mc::collision_probability(learnt, 0.03, NAN, {}), 0.8);
+  EXPECT_LT(mc::collision_probability(learnt, 0.4, NAN, {}), 0.2);
+  // It goes through the profile and back.
+  nlohmann::json document = {{"thresholds", {{"mu", {{"classify", mc::rule_to_json(learnt)}}}}}};
+  const auto read = mc::rule_from_profile(document, "mu", 2, "p.json");
+  ASSERT_TRUE(read.has_value());
+  EXPECT_EQ(read->slope, learnt.slope);
+  document["thresholds"]["mu"]["classify"]["slope"] = -1;
+  EXPECT_THROW(mc::rule_from_profile(document, "mu", 2, "p.json"), momentum::Error);
+}
+
+}  // namespace
+
+namespace {
+
+// The same pulse (a raised cosine of 0.12 s, rising from t = 0.05 s, on a noise-free residual)
+// sampled at 125 Hz and at 1 kHz, at several phases of the sampling clock: its width and rise
+// agree within 1 ms, so that a rule learnt at one rate cuts at the same place at the other.
+// Counted in whole samples the 125 Hz width was short by up to 8 ms.
+TEST(Classify, PulseShapeIsTheSameAtEveryRate) {
+  auto shape_at = [](double rate, double phase) {
+    std::vector<mc::ResidualSample> samples;
+    for (int k = 0; k < static_cast<int>(0.4 * rate); ++k) {
+      mc::ResidualSample s;
+      s.t = (k + phase) / rate;
+      s.q = Eigen::VectorXd::Zero(2);
+      const double x = (s.t - 0.05) / 0.12;
+      const double pulse = x > 0 && x < 1 ? 0.5 * (1 - std::cos(2 * M_PI * x)) : 0.0;
+      s.r = Eigen::Vector2d(30 * pulse, -10 * pulse);
+      samples.push_back(s);
+    }
+    return mc::pulse_shape(samples, 0.05, Eigen::VectorXd::Ones(2));
+  };
+  // Closed form: above half between x = 1/4 and 3/4 (0.06 s); 90% first at x = acos(-0.8) / 2pi.
+  const double width = 0.06, rise = 0.12 * std::acos(-0.8) / (2 * M_PI);
+  for (const double phase : {0.0, 0.3, 0.7}) {
+    for (const double rate : {125.0, 1000.0}) {
+      const mc::PulseShape shape = shape_at(rate, phase);
+      EXPECT_NEAR(shape.width, width, 1e-3) << rate << " Hz, phase " << phase;
+      EXPECT_NEAR(shape.rise, rise, 1e-3) << rate << " Hz, phase " << phase;
+      EXPECT_TRUE(shape.over);
+    }
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// An impact (a raised cosine of 0.06 s and 30 Nm) followed 0.1 s later by the arm's reaction
+// (one of 0.3 s and 20 Nm, over half the impact's peak): the width is the impact's lobe, 0.03 s,
+// not the 0.4 s from the impact's first half to the reaction's last.
+TEST(Classify, TheWidthIsTheLobeAroundThePeak) {
+  std::vector<mc::ResidualSample> samples;
+  auto cosine = [](double t, double start, double length) {
+    const double x = (t - start) / length;
+    return x > 0 && x < 1 ? 0.5 * (1 - std::cos(2 * M_PI * x)) : 0.0;
+  };
+  for (int k = 0; k < 1000; ++k) {
+    mc::ResidualSample s;
+    s.t = 0.001 * k;
+    s.q = Eigen::VectorXd::Zero(1);
+    s.r = Eigen::VectorXd::Constant(1, 30 * cosine(s.t, 0.05, 0.06) + 20 * cosine(s.t, 0.21, 0.3));
+    samples.push_back(s);
+  }
+  const mc::PulseShape shape = mc::pulse_shape(samples, 0.05, Eigen::VectorXd::Ones(1));
+  EXPECT_NEAR(shape.width, 0.03, 1e-3);
+  EXPECT_NEAR(shape.t_first_half, 0.05 + 0.015, 1e-3);
+  EXPECT_TRUE(shape.over);
+  // Cut before the impact's lobe ends: not over, its width so far.
+  const mc::PulseShape rising = mc::pulse_shape(std::span(samples).first(85), 0.05, Eigen::VectorXd::Ones(1));
+  EXPECT_FALSE(rising.over);
+  EXPECT_NEAR(rising.width, 0.084 - 0.065, 1e-3);
 }
 
 }  // namespace

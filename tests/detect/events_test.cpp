@@ -242,3 +242,58 @@ TEST(Events, DamagedRowsSkippedAndCountedUnlessStrict) {
   EXPECT_THROW(r->next(), momentum::Error);
   std::remove(path.c_str());
 }
+
+namespace {
+
+// The link columns (issue 29) go out after seen and come back as written; damage in them is an
+// error with the file and line.
+TEST(Events, LinkProbabilitiesRoundTripAndDamageIsAnError) {
+  const std::string path = temp_path("links.csv");
+  {
+    EventWriter w(path, 3, {}, /*contact=*/true);
+    Event e = sample(1, EventKind::end);
+    e.contact.seen = "point";
+    e.contact.link_probabilities = {{3, 0.6123456}, {2, 0.3876544}, {1, 1.23456e-9}};
+    e.contact.link_set = {2, 3};
+    e.contact.set_probability = 1 - 1.23456e-9;
+    e.contact.collision_probability = 0.25;
+    w.write(e);
+  }
+  const std::string text = [&] {
+    std::ifstream in(path);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  EXPECT_NE(text.find(",seen,links,link_set,p_set,p_collision\n"), std::string::npos) << text;
+  EXPECT_NE(text.find(",point,3:0.612;2:0.388;1:1.23e-09,2;3,1,0.25\n"), std::string::npos) << text;
+  auto r = EventReader::open(path);
+  const auto e = r->next();
+  ASSERT_TRUE(e);
+  ASSERT_EQ(e->contact.link_probabilities.size(), 3u);
+  EXPECT_EQ(e->contact.link_probabilities[0], (std::pair<int, double>{3, 0.612}));
+  EXPECT_EQ(e->contact.link_probabilities[2], (std::pair<int, double>{1, 1.23e-9}));
+  EXPECT_EQ(e->contact.link_set, (std::vector<int>{2, 3}));
+  EXPECT_EQ(e->contact.set_probability, 1);
+  EXPECT_EQ(e->contact.collision_probability, 0.25);
+  const std::string head = "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,peak2,links,link_set,p_set,p_collision\n";
+  const std::pair<std::string, std::string> cases[] = {
+      {"1,2,1,1,onset,1,,,3,4,1:0.5;2,,,\n", ":2: bad links entry '2' (link:probability)"},
+      {"1,2,1,1,onset,1,,,3,4,3:0.5,,,\n", ":2: link 3 out of 1..2"},
+      {"1,2,1,1,onset,1,,,3,4,1:1.5,,,\n", ":2: bad probability in links '1.5' (a probability, 0..1)"},
+      {"1,2,1,1,onset,1,,,3,4,,1;x,,\n", ":2: bad link in link_set 'x'"},
+      {"1,2,1,1,onset,1,,,3,4,,,-0.1,\n", ":2: bad p_set '-0.1' (a probability, 0..1)"},
+      {"1,2,1,1,onset,1,,,3,4,,,,nan\n", ":2: bad p_collision 'nan' (a probability, 0..1)"},
+  };
+  for (const auto& [row, message] : cases) {
+    write_text(path, head + row);
+    auto reader = EventReader::open(path, {.strict = true});
+    try {
+      reader->next();
+      ADD_FAILURE() << "no error for " << row;
+    } catch (const momentum::Error& error) {
+      EXPECT_EQ(std::string(error.what()), path + message);
+    }
+  }
+  std::remove(path.c_str());
+}
+
+}  // namespace

@@ -153,3 +153,154 @@ TEST(Score, NoDurationNoRateAndPercentiles) {
 
 }  // namespace
 }  // namespace momentum::eval
+
+namespace momentum::eval {
+namespace {
+
+// Calibration on five statements worked out by hand.
+TEST(Score, CalibrationOfHandMadeStatements) {
+  const Calibration c = calibration({{0.9, true}, {0.9, true}, {0.9, false}, {0.2, false}, {0.2, true}, {NAN, true}});
+  EXPECT_EQ(c.statements, 5);  // the NaN is left out
+  EXPECT_EQ(c.came_true, 3);
+  // (0.1^2 + 0.1^2 + 0.9^2 + 0.2^2 + 0.8^2) / 5
+  EXPECT_NEAR(c.brier, (0.01 + 0.01 + 0.81 + 0.04 + 0.64) / 5, 1e-12);
+  EXPECT_NEAR(c.log_loss, -(2 * std::log(0.9) + std::log(0.1) + std::log(0.8) + std::log(0.2)) / 5, 1e-12);
+  ASSERT_EQ(c.bins.size(), 5u);
+  EXPECT_EQ(c.bins[1].statements, 2);  // 0.2 falls in [0.2, 0.4)
+  EXPECT_EQ(c.bins[1].came_true, 1);
+  EXPECT_NEAR(c.bins[1].mean_stated, 0.2, 1e-12);
+  EXPECT_EQ(c.bins[4].statements, 3);
+  EXPECT_EQ(c.bins[4].came_true, 2);
+  EXPECT_NEAR(c.bins[4].mean_stated, 0.9, 1e-12);
+  EXPECT_EQ(c.bins[0].statements, 0);
+  EXPECT_TRUE(std::isnan(c.bins[0].mean_stated));
+  // Certainty that came true: no loss; certainty that did not: the log-loss's floor.
+  EXPECT_NEAR(calibration({{1.0, true}}).log_loss, -std::log(1 - 1e-6), 1e-12);
+  EXPECT_NEAR(calibration({{1.0, false}}).log_loss, -std::log(1e-6), 1e-9);
+}
+
+// Three contacts; the events state link sets and probabilities in mo-detect's columns.
+TEST(Score, LinkSetsAgainstTheTruth) {
+  const char* truth =
+      "t_onset,t_end,link,clamp,f_peak\n"
+      "10,10.5,2,0,80\n"
+      "20,21,3,1,60\n"
+      "30,30.5,4,1,60\n";
+  const char* events =
+      "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,peak2,peak3,peak4,peak5,"
+      "class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen,links,link_set,p_set,p_collision\n"
+      // truth 2 in the set {2, 3}
+      "10,10.05,2,1;2,onset,1,,,1,1,0,0,0,,,,,,,,,,,,,,,,,,,,\n"
+      "10,10.05,2,1;2,end,1,10.6,release,1,1,0,0,0,contact,,,,,,,,,,,,,,,force,2:0.6;3:0.35;4:0.05,2;3,0.95,0.25\n"
+      // truth 3 not even a candidate
+      "20,20.05,4,1;2;3;4,onset,2,,,1,1,1,1,0,,,,,,,,,,,,,,,,,,,,\n"
+      "20,20.05,4,1;2;3;4,end,2,21.1,release,1,1,1,1,0,collision,,,,,,,,,,,,,,,point,4:0.95;5:0.05,4,0.95,0.75\n"
+      // truth 4 in a set of three
+      "30,30.05,5,1;2;3;4;5,onset,3,,,1,1,1,1,1,,,,,,,,,,,,,,,,,,,,\n"
+      "30,30.05,5,1;2;3;4;5,end,3,30.6,release,1,1,1,1,1,collision,,,,,,,,,,,,,,,point,5:0.5;4:0.3;3:0.2,3;4;5,1,\n";
+  const Score s = score(read_truth(write_temp("sets-truth.csv", truth)),
+                        read_detections(write_temp("sets-events.csv", events)), {});
+  ASSERT_EQ(s.detected, 3);
+  const LinkSetStats& l = s.link_sets;
+  EXPECT_EQ(l.with_set, 3);
+  EXPECT_EQ(l.truth_in_set, 2);
+  EXPECT_EQ(l.truth_in_pair, 1);
+  EXPECT_NEAR(l.mean_size, (2 + 1 + 3) / 3.0, 1e-12);
+  EXPECT_NEAR(l.mean_stated, (0.95 + 0.95 + 1) / 3, 1e-12);
+  // 3 + 2 + 3 candidates, and one statement of 0 for the true link 3 that was none.
+  EXPECT_EQ(l.links.statements, 9);
+  EXPECT_EQ(l.links.came_true, 3);
+  const double brier = (0.4 * 0.4 + 0.35 * 0.35 + 0.05 * 0.05) + (0.95 * 0.95 + 0.05 * 0.05 + 1) +
+                       (0.5 * 0.5 + 0.7 * 0.7 + 0.2 * 0.2);
+  EXPECT_NEAR(l.links.brier, brier / 9, 1e-12);
+  // p_collision: 0.25 for a contact, 0.75 for a collision; the third states none.
+  EXPECT_EQ(l.classes.statements, 2);
+  EXPECT_NEAR(l.classes.brier, (0.25 * 0.25 + 0.25 * 0.25) / 2, 1e-12);
+  EXPECT_NE(format_table(s, true).find("link sets     truth in 2 of 3"), std::string::npos) << format_table(s, true);
+}
+
+}  // namespace
+}  // namespace momentum::eval
+
+#include <random>
+
+#include "momentum/eval/classes.hpp"
+
+namespace momentum::eval {
+namespace {
+
+// Candidate links whose stated probabilities (written at temperature 1) overstate what they
+// know: the true link is drawn at temperature 5. The learnt temperature comes back near 5; where
+// the statements are right it stays at 1 (never below: the floor).
+TEST(Score, LinkTemperatureFromSimulatedOverconfidence) {
+  for (const double truth_temperature : {5.0, 1.0}) {
+    std::mt19937_64 random(11);
+    std::normal_distribution<double> evidence(0.0, 6.0);
+    Truth truth;
+    std::vector<Detection> detections;
+    for (int k = 0; k < 3000; ++k) {
+      std::vector<double> e(4), written(4), drawn(4);
+      for (double& v : e) v = evidence(random);
+      double zw = 0, zd = 0;
+      for (int i = 0; i < 4; ++i) zw += written[i] = std::exp(e[i]), zd += drawn[i] = std::exp(e[i] / truth_temperature);
+      const int link = 1 + static_cast<int>(std::discrete_distribution<int>(drawn.begin(), drawn.end())(random));
+      TruthContact c;
+      c.t_onset = 10.0 * (k + 1), c.t_end = c.t_onset + 1, c.link = link;
+      truth.contacts.push_back(c);
+      Detection d;
+      d.t_detect = c.t_onset + 0.01;
+      d.link = d.final_link = 1;
+      for (int i = 0; i < 4; ++i) d.link_probabilities.emplace_back(i + 1, written[i] / zw);
+      detections.push_back(d);
+    }
+    const LinkTemperature t = learn_link_temperature(truth, detections);
+    EXPECT_EQ(t.events, 3000);
+    EXPECT_NEAR(t.temperature, truth_temperature, 0.1 * truth_temperature) << truth_temperature;
+    EXPECT_LE(t.log_loss, t.log_loss_written + 1e-6);
+    // Written at temperature 2 already: the same temperature comes out.
+    for (auto& d : detections)
+      for (auto& [link, p] : d.link_probabilities) p = std::pow(p, 0.5);
+    for (auto& d : detections) {
+      double z = 0;
+      for (auto& lp : d.link_probabilities) z += lp.second;
+      for (auto& lp : d.link_probabilities) lp.second /= z;
+    }
+    if (truth_temperature > 2) {
+      EXPECT_NEAR(learn_link_temperature(truth, detections, 2.0).temperature, truth_temperature, 0.1 * truth_temperature);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace momentum::eval
+
+namespace momentum::eval {
+namespace {
+
+// Two contacts with stated uncertainties: the first's force error (5 N) is within its f_sd
+// (6 N) and its point error (0.05 m) outside its p_sd (0.03 m); the second the other way round.
+TEST(Score, CoverageOfTheStatedUncertainties) {
+  const char* truth =
+      "t_onset,t_end,link,clamp,px,py,pz,f_peak\n"
+      "10,10.5,1,0,0,0,0,80\n"
+      "20,21,1,1,0.1,0,0,60\n";
+  const char* events =
+      "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,"
+      "class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen\n"
+      "10,10.05,1,1,onset,1,,,1,,,,,,,,,,,,,,,,\n"
+      "10,10.05,1,1,end,1,10.6,release,1,,,,,,,,6,0.05,0,0,0.03,85,,,point\n"
+      "20,20.05,1,1,onset,2,,,1,,,,,,,,,,,,,,,,\n"
+      "20,20.05,1,1,end,2,21.1,release,1,,,,,,,,2,0.1,0.02,0,0.03,50,,,point\n";
+  const Score s = score(read_truth(write_temp("sd-truth.csv", truth)),
+                        read_detections(write_temp("sd-events.csv", events)), {});
+  ASSERT_EQ(s.detected, 2);
+  EXPECT_EQ(s.identification.force_with_sd, 2);
+  EXPECT_EQ(s.identification.force_covered, 1);
+  EXPECT_EQ(s.identification.point_with_sd, 2);
+  EXPECT_EQ(s.identification.point_covered, 1);
+  EXPECT_NE(format_table(s, false).find("within 1 sd   force 1 of 2 (50.0%), point 1 of 2 (50.0%)"), std::string::npos)
+      << format_table(s, false);
+}
+
+}  // namespace
+}  // namespace momentum::eval

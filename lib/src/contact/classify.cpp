@@ -27,23 +27,68 @@ std::optional<EventClass> parse_class(std::string_view text) {
 
 PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, const Eigen::VectorXd& weight) {
   // Called on every row of an undecided event (EventContact::decide): no allocation, the
-  // strengths are computed again in the second pass instead of kept.
+  // strengths are computed again in the later passes instead of kept.
+  //
+  // The width is that of the lobe around the peak: from where the strength last rose through
+  // half the peak before it to where it first fell back below after it. What comes after
+  // (the arm stopping or backing off, a bounce, seen through the model's errors) is the arm's
+  // reaction, not the contact, and it differs with the controller and the rate.
+  //
+  // The crossings of 90% and half the peak are placed between the two samples around them, by
+  // linear interpolation, not at the first sample beyond: a width counted in whole samples is
+  // short by up to a sample period (8 ms at 125 Hz, 1 ms at 1 kHz), and so is a rise long by
+  // up to one, and a rule learnt at one rate would cut elsewhere at another.
   PulseShape shape;
   if (samples.empty()) return shape;
   auto strength = [&](const ResidualSample& s) { return weight.cwiseProduct(s.r).norm(); };
   double peak = 0;
-  for (const auto& s : samples) peak = std::max(peak, strength(s));
-  double t_last_half = NAN, last = 0;
-  for (const auto& s : samples) {
-    last = strength(s);
-    if (std::isnan(shape.rise) && last >= 0.9 * peak) shape.rise = std::max(0.0, s.t - t_onset);
-    if (last >= 0.5 * peak) {
-      if (std::isnan(shape.t_first_half)) shape.t_first_half = s.t;
-      t_last_half = s.t;
+  std::size_t at_peak = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if (const double v = strength(samples[i]); v > peak) peak = v, at_peak = i;
+  // The time at which the strength crosses `level` between (t0, a) and (t1, b).
+  auto crossing = [](double t0, double a, double t1, double b, double level) {
+    return b != a ? t0 + (t1 - t0) * std::clamp((level - a) / (b - a), 0.0, 1.0) : t1;
+  };
+  const double half = 0.5 * peak;
+  // The lobe's start: back from the peak to the last sample below half.
+  std::size_t first = at_peak;
+  double below = NAN;
+  while (first > 0) {
+    const double v = strength(samples[first - 1]);
+    if (v < half) {
+      below = v;
+      break;
     }
+    --first;
+  }
+  const double at_first = strength(samples[first]);
+  shape.t_first_half = first > 0 ? crossing(samples[first - 1].t, below, samples[first].t, at_first, half)
+                                  : samples[first].t;
+  // The rise: to the first crossing of 90% of the peak.
+  double previous = 0;
+  for (std::size_t i = 0; i <= at_peak; ++i) {
+    const double v = strength(samples[i]);
+    if (v >= 0.9 * peak) {
+      shape.rise = std::max(0.0, (i > 0 ? crossing(samples[i - 1].t, previous, samples[i].t, v, 0.9 * peak)
+                                         : samples[i].t) -
+                                     t_onset);
+      break;
+    }
+    previous = v;
+  }
+  // The lobe's end: on from the peak to the first sample below half.
+  double t_last_half = samples.back().t;
+  previous = peak;
+  for (std::size_t i = at_peak + 1; i < samples.size(); ++i) {
+    const double v = strength(samples[i]);
+    if (v < half) {
+      t_last_half = crossing(samples[i - 1].t, previous, samples[i].t, v, half);
+      shape.over = true;
+      break;
+    }
+    previous = v;
   }
   shape.width = t_last_half - shape.t_first_half;
-  shape.over = last < 0.5 * peak;
   return shape;
 }
 
@@ -58,6 +103,8 @@ bool ClassRule::IsValid(std::string* why) const {
     return fail("rise_reference must be a positive number of seconds");
   for (std::size_t j = 0; j < collision_level.size(); ++j)
     if (!(collision_level[j] > 0)) return fail("collision level of joint " + std::to_string(j + 1) + " must be positive");
+  if (!(slope >= 0) || !std::isfinite(slope)) return fail("slope must be 0 or more");
+  if (!(level_probability > 0 && level_probability <= 1)) return fail("level_probability must be in (0, 1]");
   return true;
 }
 
@@ -74,7 +121,43 @@ EventClass classify(const ClassRule& rule, double width, double rise, std::span<
   return weighted < rule.width ? EventClass::collision : EventClass::contact;
 }
 
+double collision_probability(const ClassRule& rule, double width, double rise, std::span<const double> peaks) {
+  if (!(rule.slope > 0)) return NAN;
+  for (std::size_t j = 0; j < std::min(peaks.size(), rule.collision_level.size()); ++j)
+    if (std::abs(peaks[j]) > rule.collision_level[j]) return rule.level_probability;
+  const double weighted = rise_weighted_width(rule, width, rise);
+  if (std::isnan(weighted)) return NAN;
+  return 1 / (1 + std::pow(std::max(weighted, 1e-12) / rule.width, rule.slope));
+}
+
 namespace {
+
+// The slope b of P(collision) = 1 / (1 + exp(b z)) over z = ln(rise-weighted width / cut):
+// Newton's method on the standardised z (divided by its root mean square) with a unit normal
+// prior on the slope, as the rise's weight. 0 with fewer than 2 examples.
+double learn_slope(const std::vector<std::pair<double, bool>>& widths, double cut) {
+  std::vector<double> z;
+  for (const auto& [w, collision] : widths) z.push_back(std::log(w / cut));
+  if (z.size() < 2) return 0;
+  double rms = 0;
+  for (double v : z) rms += v * v / static_cast<double>(z.size());
+  rms = std::sqrt(rms);
+  if (!(rms > 0)) return 0;
+  double b = 0;  // of the standardised z, for P(collision) = 1 / (1 + exp(b z))
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    double gradient = -b, hessian = 1;
+    for (std::size_t i = 0; i < z.size(); ++i) {
+      const double x = -z[i] / rms;  // P(collision) = sigma(b x)
+      const double p = 1 / (1 + std::exp(-b * x));
+      gradient += ((widths[i].second ? 1.0 : 0.0) - p) * x;
+      hessian += p * (1 - p) * x * x;
+    }
+    const double step = gradient / hessian;
+    b += step;
+    if (std::abs(step) < 1e-12) break;
+  }
+  return std::max(0.0, b / rms);
+}
 
 // The rise's weight against the width's in a logistic regression of the class (collision 1)
 // on (log width, log rise), standardised, with a unit normal prior on the two slopes (Newton's
@@ -161,12 +244,21 @@ ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints)
     return static_cast<double>(right) / static_cast<double>(examples.size());
   };
   rule.accuracy = accuracy(rule);
+  rule.slope = learn_slope(widths, rule.width);
   // The levels only where they classify the examples better than the width alone: the largest
   // contact of a campaign is a poor bound on the next campaign's, so a level that teaches
   // nothing here would only call a firm push a collision there.
   ClassRule with_levels = rule;
   if (std::all_of(level.begin(), level.end(), [](double v) { return v > 0; })) with_levels.collision_level = level;
   with_levels.accuracy = accuracy(with_levels);
+  int over = 0, over_collisions = 0;
+  for (const auto& e : examples)
+    for (std::size_t j = 0; j < std::min(joints, e.peaks.size()); ++j)
+      if (!with_levels.collision_level.empty() && std::abs(e.peaks[j]) > with_levels.collision_level[j]) {
+        ++over, over_collisions += e.collision ? 1 : 0;
+        break;
+      }
+  with_levels.level_probability = (over_collisions + 1.0) / (over + 2.0);
   return with_levels.accuracy > rule.accuracy ? with_levels : rule;
 }
 
@@ -188,6 +280,8 @@ std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::
     rule.contacts = found->value("contacts", 0);
     rule.collisions = found->value("collisions", 0);
     rule.accuracy = found->value("accuracy", 0.0);
+    rule.slope = found->value("slope", 0.0);
+    rule.level_probability = found->value("level_probability", 1.0);
     std::string why;
     if (!rule.IsValid(&why)) throw Error(why);
     if (!rule.collision_level.empty() && rule.collision_level.size() != joints)
@@ -210,7 +304,11 @@ nlohmann::json rule_to_json(const ClassRule& rule) {
     j["rise_exponent"] = rule.rise_exponent;
     j["rise_reference"] = rule.rise_reference;
   }
-  if (!rule.collision_level.empty()) j["collision"] = rule.collision_level;
+  if (!rule.collision_level.empty()) {
+    j["collision"] = rule.collision_level;
+    j["level_probability"] = rule.level_probability;
+  }
+  if (rule.slope > 0) j["slope"] = rule.slope;
   return j;
 }
 

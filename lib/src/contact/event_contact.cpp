@@ -34,6 +34,7 @@ EventContact::EventContact(const model::Model& model, const detect::Thresholds& 
       friction_band_(std::move(friction_band)),
       rest_rule_(thresholds.rest_rule),
       locator_(model, noise_scale(thresholds), options),
+      options_(options),
       window_(static_cast<std::size_t>(model.nq)),
       n_(static_cast<std::size_t>(model.nq)),
       x_last_(n_, 0.0),
@@ -76,14 +77,30 @@ void EventContact::fill(detect::Event& event, bool whole) {
     c.impulse = loc.impulse;
     c.fit = loc.chi2;
     c.seen = loc.point_determined ? "point" : loc.force_determined ? "force" : "partial";
+    c.link_probabilities.clear();
+    for (const CandidateFit& candidate : loc.candidates)
+      c.link_probabilities.emplace_back(candidate.link, candidate.probability);
+    std::stable_sort(c.link_probabilities.begin(), c.link_probabilities.end(),
+                     [](const auto& a, const auto& b) { return a.second > b.second; });
+    const LinkSet set = link_set(loc.candidates, options_.link_confidence, loc.link);
+    c.link_set = set.links;
+    c.set_probability = set.probability;
   }
   if (whole) {
     const PulseShape shape = pulse_shape(samples, window_.t_onset_estimate(), weight_);
     c.rise = shape.rise;
     c.width = shape.width;
-    if (rule_) c.event_class = std::string(class_name(classify(*rule_, c.width, c.rise, event.peaks)));
+    if (rule_) {
+      c.event_class = std::string(class_name(classify(*rule_, c.width, c.rise, event.peaks)));
+      c.collision_probability = collision_probability(*rule_, c.width, c.rise, event.peaks);
+    }
   } else if (decided_ != EventClass::unknown) {
     c.event_class = std::string(class_name(decided_));
+    // As decided: over a level, or on the pulse's shape so far (a contact decided before the
+    // pulse is over is wider still: its probability of a collision is at most this).
+    const PulseShape shape = pulse_shape(samples, window_.t_onset_estimate(), weight_);
+    const double width = shape.over ? shape.width : t_last_ - shape.t_first_half;
+    c.collision_probability = collision_probability(*rule_, width, shape.rise, event.peaks);
   }
 }
 
@@ -134,14 +151,34 @@ std::optional<std::string_view> EventContact::decide() {
   return decided ? std::optional(class_name(*decided)) : std::nullopt;
 }
 
+std::optional<double> link_temperature_from_profile(const nlohmann::json& document, std::string_view signal,
+                                                    const std::string& where) {
+  const auto thresholds = document.find("thresholds");
+  if (thresholds == document.end() || !thresholds->is_object()) return std::nullopt;
+  const auto entry = thresholds->find(std::string(signal));
+  if (entry == thresholds->end() || !entry->is_object()) return std::nullopt;
+  const auto identify = entry->find("identify");
+  if (identify == entry->end()) return std::nullopt;
+  const std::string key = "thresholds." + std::string(signal) + ".identify.link_temperature";
+  const auto value = identify->is_object() ? identify->find("link_temperature") : identify->end();
+  if (!identify->is_object() || value == identify->end() || !value->is_number())
+    throw Error(where + ": " + key + ": missing or not a number");
+  const double t = value->get<double>();
+  if (!(t > 0) || !std::isfinite(t)) throw Error(where + ": " + key + ": must be positive");
+  return t;
+}
+
 detect::AnnotatorFactory annotator_factory(LocatorOptions options, std::string profile_path) {
   return [options, profile_path = std::move(profile_path)](const model::Model& chain, const model::Profile& profile,
                                                             const detect::Thresholds& thresholds,
                                                             const detect::FrictionBand& band)
              -> std::unique_ptr<detect::EventAnnotator> {
-    auto rule = rule_from_profile(profile.document, detect::signal_name(thresholds.signal), thresholds.joints.size(),
-                                  profile_path);
-    return std::make_unique<EventContact>(chain, thresholds, std::move(rule), options, band);
+    const std::string_view signal = detect::signal_name(thresholds.signal);
+    auto rule = rule_from_profile(profile.document, signal, thresholds.joints.size(), profile_path);
+    LocatorOptions located = options;
+    if (const auto temperature = link_temperature_from_profile(profile.document, signal, profile_path))
+      located.link_temperature = *temperature;
+    return std::make_unique<EventContact>(chain, thresholds, std::move(rule), located, band);
   };
 }
 

@@ -200,6 +200,8 @@ bool LocatorOptions::IsValid(std::string* why) const {
   if (!(penalty_per_unknown > 0) || !std::isfinite(penalty_per_unknown))
     return fail("the penalty per unknown must be positive");
   if (!(proximal_alpha > 0 && proximal_alpha < 0.5)) return fail("the proximal level must be in (0, 0.5)");
+  if (!(link_confidence > 0 && link_confidence <= 1)) return fail("the link set's confidence must be in (0, 1]");
+  if (!(link_temperature > 0) || !std::isfinite(link_temperature)) return fail("the link temperature must be positive");
   return true;
 }
 
@@ -335,6 +337,43 @@ double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector
   return std::max(0.0, cost);
 }
 
+void candidate_probabilities(std::vector<CandidateFit>& candidates, double observations, double noise_scale,
+                             double temperature) {
+  if (candidates.empty()) return;
+  // Log evidence per body: -cost / (2 s) - unknowns / 2 log n, then normalised (the largest
+  // first subtracted so that the exponentials do not underflow together).
+  std::vector<double> log_evidence(candidates.size());
+  double best = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const int unknowns = candidates[i].unknowns - (candidates[i].point_unknown ? 1 : 0);
+    log_evidence[i] = (-0.5 * candidates[i].cost / noise_scale - 0.5 * unknowns * std::log(std::max(observations, 1.0))) /
+                          temperature +
+                      candidates[i].log_point_share;
+    best = std::max(best, log_evidence[i]);
+  }
+  double sum = 0;
+  for (std::size_t i = 0; i < candidates.size(); ++i) sum += candidates[i].probability = std::exp(log_evidence[i] - best);
+  for (auto& c : candidates) c.probability /= sum;
+}
+
+LinkSet link_set(const std::vector<CandidateFit>& candidates, double confidence, int chosen) {
+  std::vector<const CandidateFit*> order;
+  for (const auto& c : candidates) order.push_back(&c);
+  std::stable_sort(order.begin(), order.end(), [chosen](const CandidateFit* a, const CandidateFit* b) {
+    if ((a->link == chosen) != (b->link == chosen)) return a->link == chosen;
+    return a->probability > b->probability || (a->probability == b->probability && a->link < b->link);
+  });
+  LinkSet set;
+  // The last link is taken even when rounding leaves the sum a hair under the confidence.
+  for (const CandidateFit* c : order) {
+    if (set.probability >= confidence * (1 - 1e-12)) break;
+    set.links.push_back(c->link);
+    set.probability += c->probability;
+  }
+  std::sort(set.links.begin(), set.links.end());
+  return set;
+}
+
 Location Locator::locate(std::span<const ResidualSample> samples, int first_link, int signature_link,
                          LinkChoice choice) {
   Location out;
@@ -433,7 +472,18 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
         break;
       }
     }
-  for (const BodyFit& g : fits) out.candidates.push_back({g.body + 1, g.cost, g.unknowns});
+  for (const BodyFit& g : fits) {
+    CandidateFit c{g.body + 1, g.cost, g.unknowns, g.body + 1 >= 4, 0.0, 0.0};
+    if (c.point_unknown) {
+      // ln mean exp(-(cost_p - cost) / 2sT): the best point contributes 1, so no underflow.
+      double share = 0;
+      for (double cost : g.costs) share += std::exp(-0.5 * (cost - g.cost) / (scale * options_.link_temperature));
+      c.log_point_share = std::log(share / static_cast<double>(g.costs.size()));
+    }
+    out.candidates.push_back(c);
+  }
+  candidate_probabilities(out.candidates, static_cast<double>(fit.size()) * nq, scale, options_.link_temperature);
+  out.noise_scale = scale;
   const BodyFit& f = fits[chosen];
   const Segment& seg = segments_[static_cast<std::size_t>(f.body)];
   out.link = f.body + 1;

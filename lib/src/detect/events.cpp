@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -23,6 +24,15 @@ constexpr std::size_t npos = static_cast<std::size_t>(-1);
 void append_number(std::string& out, double value) {
   char buffer[40];
   out.append(buffer, stream::format_double(value, buffer));
+}
+
+// A probability to 3 significant digits (0.912, 1.2e-07): beyond that its digits say nothing of
+// its calibration, and a small one keeps its order of magnitude (mo-calibrate --classes tempers
+// them).
+void append_probability(std::string& out, double p) {
+  char buffer[32];
+  const int n = std::snprintf(buffer, sizeof buffer, "%.3g", p);
+  out.append(buffer, static_cast<std::size_t>(std::max(n, 0)));
 }
 
 std::vector<std::string_view> split_fields(std::string_view line) {
@@ -55,6 +65,8 @@ bool equal_ignoring_case(std::string_view a, std::string_view b) {
 // The contact columns, in order (event_header's documentation).
 constexpr const char* kContactColumns[] = {"class", "rise", "width",  "f",       "fx",  "fy",   "fz", "f_sd",
                                            "px",    "py",   "pz",     "p_sd",    "f_peak", "impulse", "fit", "seen"};
+// Appended after them (issue 29), so that the columns before keep their places.
+constexpr const char* kLinkColumns[] = {"links", "link_set", "p_set", "p_collision"};
 constexpr std::size_t kContactNumbers = 14;  // columns 1..14 are numbers, 0 and 15 words
 
 double* contact_number(Event::Contact& c, std::size_t k) {
@@ -89,8 +101,10 @@ std::string_view end_reason_name(EndReason reason) {
 std::string event_header(std::size_t joints, bool contact) {
   std::string header = "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by";
   for (std::size_t j = 1; j <= joints; ++j) header += ",peak" + std::to_string(j);
-  if (contact)
+  if (contact) {
     for (const char* column : kContactColumns) header += std::string(",") + column;
+    for (const char* column : kLinkColumns) header += std::string(",") + column;
+  }
   return header;
 }
 
@@ -129,6 +143,21 @@ std::string format_event(const Event& e, bool contact) {
     }
     line += ',';
     line += c.seen;
+    line += ',';
+    for (std::size_t i = 0; i < c.link_probabilities.size(); ++i) {
+      if (i) line += ';';
+      line += std::to_string(c.link_probabilities[i].first) + ':';
+      append_probability(line, c.link_probabilities[i].second);
+    }
+    line += ',';
+    for (std::size_t i = 0; i < c.link_set.size(); ++i) {
+      if (i) line += ';';
+      line += std::to_string(c.link_set[i]);
+    }
+    line += ',';
+    if (!std::isnan(c.set_probability)) append_probability(line, c.set_probability);
+    line += ',';
+    if (!std::isnan(c.collision_probability)) append_probability(line, c.collision_probability);
   }
   return line;
 }
@@ -219,6 +248,7 @@ std::unique_ptr<EventReader> EventReader::open(const std::string& path, EventRea
   }
   reader->joints_ = reader->c_peaks_.size();
   for (const char* column : kContactColumns) reader->c_contact_.push_back(find(column));
+  for (const char* column : kLinkColumns) reader->c_links_.push_back(find(column));
   return reader;
 }
 
@@ -340,6 +370,39 @@ std::optional<Event> EventReader::parse(const std::string& line) const {
     if (c != npos && !field(fields[c]).empty()) *contact_number(e.contact, k) = number(c, kContactColumns[k + 1]);
   }
   if (c_contact_.back() != npos) e.contact.seen = std::string(field(fields[c_contact_.back()]));
+  auto probability = [&](std::string_view text, const char* what) {
+    auto value = stream::parse_double(field(text));
+    if (!value || !(*value >= 0 && *value <= 1))
+      throw fail(std::string("bad ") + what + " '" + core::printable(text) + "' (a probability, 0..1)");
+    return *value;
+  };
+  auto link_number = [&](std::string_view text, const char* what) {
+    const long long link = integer(text, what);
+    if (link < 1 || (n > 0 && link > n)) throw fail("link " + std::to_string(link) + " out of 1.." + std::to_string(n));
+    return static_cast<int>(link);
+  };
+  if (c_links_[0] != npos)
+    for (std::string_view rest = field(fields[c_links_[0]]); !rest.empty();) {
+      const std::size_t semi = rest.find(';');
+      const std::string_view pair = rest.substr(0, semi);
+      const std::size_t colon = pair.find(':');
+      if (colon == std::string_view::npos) throw fail("bad links entry '" + core::printable(pair) + "' (link:probability)");
+      e.contact.link_probabilities.emplace_back(link_number(pair.substr(0, colon), "link in links"),
+                                                probability(pair.substr(colon + 1), "probability in links"));
+      if (semi == std::string_view::npos) break;
+      rest.remove_prefix(semi + 1);
+    }
+  if (c_links_[1] != npos)
+    for (std::string_view rest = field(fields[c_links_[1]]); !rest.empty();) {
+      const std::size_t semi = rest.find(';');
+      e.contact.link_set.push_back(link_number(rest.substr(0, semi), "link in link_set"));
+      if (semi == std::string_view::npos) break;
+      rest.remove_prefix(semi + 1);
+    }
+  if (c_links_[2] != npos && !field(fields[c_links_[2]]).empty())
+    e.contact.set_probability = probability(fields[c_links_[2]], "p_set");
+  if (c_links_[3] != npos && !field(fields[c_links_[3]]).empty())
+    e.contact.collision_probability = probability(fields[c_links_[3]], "p_collision");
   return e;
 }
 

@@ -41,6 +41,8 @@ nlohmann::json event_json(const Event& event, const std::string& source, const n
   const bool end = event.kind == EventKind::end;
   const Event::Contact& c = event.contact;
   auto word = [](const std::string& w) { return w.empty() ? nlohmann::json(nullptr) : nlohmann::json(w); };
+  nlohmann::json links = nlohmann::json::array();
+  for (const auto& [link, p] : c.link_probabilities) links.push_back({{"link", link}, {"p", p}});
   nlohmann::json contact = {{"class", word(c.event_class)},
                             {"rise", model::json_number(c.rise)},
                             {"width", model::json_number(c.width)},
@@ -54,7 +56,11 @@ nlohmann::json event_json(const Event& event, const std::string& source, const n
                             {"peak_force", model::json_number(c.peak_force)},
                             {"impulse", model::json_number(c.impulse)},
                             {"fit", model::json_number(c.fit)},
-                            {"seen", word(c.seen)}};
+                            {"seen", word(c.seen)},
+                            {"links", links},
+                            {"link_set", c.link_set},
+                            {"p_set", model::json_number(c.set_probability)},
+                            {"p_collision", model::json_number(c.collision_probability)}};
   return {{"event", event.id},
           {"kind", std::string(kind_name(event.kind))},
           {"t_onset_estimate", model::json_number(event.t_onset_estimate)},

@@ -55,9 +55,15 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
     d.event_class = e.contact.event_class;
     d.peak_force = e.contact.peak_force;
     d.point = {e.contact.px, e.contact.py, e.contact.pz};
+    d.force_sd = e.contact.force_sd;
+    d.point_sd = e.contact.point_sd;
     d.width = e.contact.width;
     d.rise = e.contact.rise;
     d.peaks = e.peaks;
+    d.link_probabilities = e.contact.link_probabilities;
+    d.link_set = e.contact.link_set;
+    d.set_probability = e.contact.set_probability;
+    d.collision_probability = e.contact.collision_probability;
   };
   std::map<std::uint64_t, std::size_t> event_index;  // event number -> index in detections
   while (const auto e = reader->next()) {
@@ -176,6 +182,12 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
         hit->force_error = std::abs(e->peak_force - hit->contact.peak_force);
       if (e->final_link == hit->contact.link && e->point.allFinite() && hit->contact.point.allFinite())
         hit->point_error = (e->point - hit->contact.point).norm();
+      hit->force_sd = e->force_sd;
+      hit->point_sd = e->point_sd;
+      hit->link_probabilities = e->link_probabilities;
+      hit->link_set = e->link_set;
+      hit->set_probability = e->set_probability;
+      hit->collision_probability = e->collision_probability;
     } else if (in_span) {
       // Within some contact's span: a repeat when one there is detected, else late.
       bool any_detected = false;
@@ -199,6 +211,14 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     if (!o.event_class.empty()) {
       ++stats.classified;
       stats.class_right += (o.event_class == "collision") == o.contact.clamp;
+    }
+    if (std::isfinite(o.force_error) && std::isfinite(o.force_sd)) {
+      ++stats.force_with_sd;
+      stats.force_covered += o.force_error <= o.force_sd;
+    }
+    if (std::isfinite(o.point_error) && std::isfinite(o.point_sd)) {
+      ++stats.point_with_sd;
+      stats.point_covered += o.point_error <= o.point_sd;
     }
     if (std::isfinite(o.force_error)) {
       e[0].push_back(o.force_error);
@@ -229,6 +249,35 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     stats.force_error_percent = stats_of(e[1]);
     stats.point_error = stats_of(e[2]);
   };
+  // The stated link sets and probabilities.
+  {
+    LinkSetStats& l = s.link_sets;
+    std::vector<std::pair<double, bool>> link_statements, class_statements;
+    double sizes = 0, stated = 0;
+    int stated_count = 0;
+    for (const auto& o : s.outcomes) {
+      if (!o.detected) continue;
+      if (!o.link_set.empty()) {
+        ++l.with_set;
+        const bool in = std::find(o.link_set.begin(), o.link_set.end(), o.contact.link) != o.link_set.end();
+        l.truth_in_set += in;
+        l.truth_in_pair += in && o.link_set.size() <= 2;
+        sizes += static_cast<double>(o.link_set.size());
+        if (std::isfinite(o.set_probability)) stated += o.set_probability, ++stated_count;
+      }
+      bool named = false;
+      for (const auto& [link, p] : o.link_probabilities) {
+        link_statements.emplace_back(p, link == o.contact.link);
+        named = named || link == o.contact.link;
+      }
+      if (!o.link_probabilities.empty() && !named) link_statements.emplace_back(0.0, true);
+      if (std::isfinite(o.collision_probability)) class_statements.emplace_back(o.collision_probability, o.contact.clamp);
+    }
+    if (l.with_set) l.mean_size = sizes / l.with_set;
+    if (stated_count) l.mean_stated = stated / stated_count;
+    l.links = calibration(link_statements);
+    l.classes = calibration(class_statements);
+  }
   s.missed = s.contacts - s.detected;
   s.delay = stats_of(delays);
   s.onset_error = stats_of(onset_errors);
@@ -252,6 +301,30 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
     if (*s.collision_free > 0) s.false_alarms_per_hour = s.false_alarms / (*s.collision_free / 3600.0);
   }
   return s;
+}
+
+Calibration calibration(const std::vector<std::pair<double, bool>>& statements, int bins) {
+  Calibration c;
+  bins = std::max(bins, 1);
+  for (int b = 0; b < bins; ++b) c.bins.push_back({static_cast<double>(b) / bins, static_cast<double>(b + 1) / bins, 0, 0, 0.0});
+  double brier = 0, log_loss = 0;
+  for (const auto& [p, came_true] : statements) {
+    if (!std::isfinite(p)) continue;
+    const double q = std::clamp(p, 0.0, 1.0);
+    ++c.statements;
+    c.came_true += came_true;
+    const double outcome = came_true ? 1.0 : 0.0;
+    brier += (q - outcome) * (q - outcome);
+    const double kept = std::clamp(q, 1e-6, 1 - 1e-6);
+    log_loss -= std::log(came_true ? kept : 1 - kept);
+    ReliabilityBin& bin = c.bins[static_cast<std::size_t>(std::min(bins - 1, static_cast<int>(q * bins)))];
+    ++bin.statements;
+    bin.came_true += came_true;
+    bin.mean_stated += q;  // a sum until the end
+  }
+  for (auto& bin : c.bins) bin.mean_stated = bin.statements ? bin.mean_stated / bin.statements : NAN;
+  if (c.statements) c.brier = brier / c.statements, c.log_loss = log_loss / c.statements;
+  return c;
 }
 
 std::string format_table(const Score& s, bool list) {
@@ -305,6 +378,31 @@ std::string format_table(const Score& s, bool list) {
   if (id.point_error.count)
     line("point error", "median " + fixed(id.point_error.median, 3) + " m, p95 " + fixed(id.point_error.p95, 3) +
                             " m, over " + std::to_string(id.point_error.count) + " (right link, true point known)");
+  if (id.force_with_sd || id.point_with_sd)
+    line("within 1 sd", "force " + std::to_string(id.force_covered) + " of " + std::to_string(id.force_with_sd) + " (" +
+                            percent(id.force_covered, id.force_with_sd) + "), point " +
+                            std::to_string(id.point_covered) + " of " + std::to_string(id.point_with_sd) + " (" +
+                            percent(id.point_covered, id.point_with_sd) + "); about 68% if the stated uncertainties hold");
+  const LinkSetStats& ls = s.link_sets;
+  if (ls.with_set)
+    line("link sets", "truth in " + std::to_string(ls.truth_in_set) + " of " + std::to_string(ls.with_set) + " (" +
+                          percent(ls.truth_in_set, ls.with_set) + "; stated " + fixed(100 * ls.mean_stated, 0) +
+                          "%), mean size " + fixed(ls.mean_size, 2) + ", in a set of 1 or 2: " +
+                          std::to_string(ls.truth_in_pair));
+  auto calibration_lines = [&](const char* what, const Calibration& c) {
+    if (!c.statements) return;
+    line(what, "Brier " + fixed(c.brier, 3) + ", log-loss " + fixed(c.log_loss, 3) + " over " +
+                   std::to_string(c.statements) + " statements");
+    for (const auto& bin : c.bins) {
+      if (!bin.statements) continue;
+      char buffer[120];
+      std::snprintf(buffer, sizeof buffer, "  p %.1f-%.1f: stated %.2f, came true %d of %d (%.2f)\n", bin.low, bin.high,
+                    bin.mean_stated, bin.came_true, bin.statements, static_cast<double>(bin.came_true) / bin.statements);
+      out += buffer;
+    }
+  };
+  calibration_lines("link p", ls.links);
+  calibration_lines("collision p", ls.classes);
   if (!s.by_link.empty()) {
     out += "\nlink  contacts  detected  isolated  median delay\n";
     for (const auto& l : s.by_link) {
@@ -343,6 +441,11 @@ std::string format_table(const Score& s, bool list) {
           text += ", " + o.event_class + ((o.event_class == "collision") == o.contact.clamp ? "" : " (wrong)");
         if (std::isfinite(o.force_error)) text += ", force off by " + fixed(o.force_error, 1) + " N";
         if (std::isfinite(o.point_error)) text += ", point off by " + fixed(o.point_error, 3) + " m";
+        if (!o.link_set.empty()) {
+          text += ", links";
+          for (std::size_t i = 0; i < o.link_set.size(); ++i) text += (i ? ";" : " ") + std::to_string(o.link_set[i]);
+          if (std::isfinite(o.set_probability)) text += " at " + fixed(o.set_probability, 2);
+        }
       } else {
         text += ": MISSED";
       }
@@ -380,9 +483,28 @@ nlohmann::json to_json(const Score& s) {
             {"class_right", i.class_right},
             {"force_error_n", stats_json(i.force_error)},
             {"force_error_percent", stats_json(i.force_error_percent)},
-            {"point_error_m", stats_json(i.point_error)}};
+            {"point_error_m", stats_json(i.point_error)},
+            {"force_with_sd", i.force_with_sd},
+            {"force_covered", i.force_covered},
+            {"point_with_sd", i.point_with_sd},
+            {"point_covered", i.point_covered}};
   };
   j["identification"] = identification_json(s.identification);
+  auto calibration_json = [](const Calibration& c) -> nlohmann::json {
+    nlohmann::json bins = nlohmann::json::array();
+    for (const auto& b : c.bins)
+      bins.push_back({{"low", b.low}, {"high", b.high}, {"statements", b.statements}, {"came_true", b.came_true},
+                      {"mean_stated", model::json_number(b.mean_stated)}});
+    return {{"statements", c.statements}, {"came_true", c.came_true}, {"brier", model::json_number(c.brier)},
+            {"log_loss", model::json_number(c.log_loss)}, {"bins", bins}};
+  };
+  j["link_sets"] = {{"with_set", s.link_sets.with_set},
+                    {"truth_in_set", s.link_sets.truth_in_set},
+                    {"truth_in_pair", s.link_sets.truth_in_pair},
+                    {"mean_size", model::json_number(s.link_sets.mean_size)},
+                    {"mean_stated", model::json_number(s.link_sets.mean_stated)},
+                    {"links", calibration_json(s.link_sets.links)},
+                    {"classes", calibration_json(s.link_sets.classes)}};
   j["by_link"] = nlohmann::json::array();
   for (const auto& l : s.by_link)
     j["by_link"].push_back({{"link", l.link}, {"contacts", l.contacts}, {"detected", l.detected},
@@ -399,7 +521,10 @@ nlohmann::json to_json(const Score& s) {
                                     {"link_at_detection", o.link_at_detection},
                                     {"class", o.event_class.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.event_class)},
                                     {"force_error_n", model::json_number(o.force_error)},
-                                    {"point_error_m", model::json_number(o.point_error)}});
+                                    {"point_error_m", model::json_number(o.point_error)},
+                                    {"link_set", o.link_set},
+                                    {"p_set", model::json_number(o.set_probability)},
+                                    {"p_collision", model::json_number(o.collision_probability)}});
   j["false_alarm_times"] = s.false_alarm_times;
   return j;
 }

@@ -75,6 +75,7 @@ class EventContact final : public detect::EventAnnotator {
   detect::FrictionBand friction_band_;
   detect::RestRule rest_rule_;
   Locator locator_;
+  LocatorOptions options_;
   ContactWindow window_;
   std::size_t n_;
   double t_last_ = 0;
@@ -85,6 +86,12 @@ class EventContact final : public detect::EventAnnotator {
   EventClass decided_ = EventClass::unknown;
   bool decision_reported_ = true;
 };
+
+// thresholds.<signal>.identify.link_temperature of a profile document (LocatorOptions::
+// link_temperature, learnt by mo-calibrate --classes); nullopt when the entry is absent. Throws
+// momentum::Error `where: key: message` when it is not a positive number.
+std::optional<double> link_temperature_from_profile(const nlohmann::json& document, std::string_view signal,
+                                                    const std::string& where);
 
 // The stream detector's annotator factory: an EventContact with `options` for each stream, its
 // class rule read from the profile's thresholds (rule_from_profile; messages name

@@ -86,6 +86,15 @@ struct LocatorOptions {
   // LinkChoice::proximal_accepted: the level at which a candidate body's weighted cost is
   // refuted as more than the calibrated noise (chi-square on its degrees of freedom), (0, 0.5).
   double proximal_alpha = 0.001;
+  // The confidence the reported link set reaches (link_set), (0, 1].
+  double link_confidence = 0.9;
+  // The temperature of the candidates' probabilities, > 0: the log evidence of each body is
+  // divided by it (CandidateFit::probability). The residuals of the samples of one contact are
+  // not independent (the observer's low pass, the model's errors that the arm's motion and
+  // reaction make smooth), so the Gaussian likelihood of white noise overstates what they
+  // tell; 1 is that likelihood, a larger value what a labelled campaign shows
+  // (mo-calibrate --classes: thresholds.<signal>.identify.link_temperature).
+  double link_temperature = 1;
   bool IsValid(std::string* why) const;
 };
 
@@ -111,6 +120,20 @@ struct CandidateFit {
   int link = 0;  // 1..nq
   double cost = 0;
   int unknowns = 0;
+  // Whether the point along the body is one of `unknowns` (>= 4 joints see the body), and then
+  // ln of the mean over the body's candidate points of their likelihood relative to the best
+  // point's, exp(-(cost_p - cost) / (2 s T)) (<= 0): the share of the body's surface that
+  // explains the residuals, the point's Occam factor under a uniform prior on the surface.
+  bool point_unknown = false;
+  double log_point_share = 0;
+  // Posterior probability that the contact is on this body, among the candidates (they sum to
+  // 1), with equal priors: the residuals' Gaussian likelihood at the body's best fit,
+  // exp(-cost / (2 s)) with s the fit's noise scale (Location::noise_scale), times
+  // n^(-k / 2) for the body's unknowns k other than the point over the n residual values
+  // fitted (Schwarz's approximation of the marginal likelihood: a body with more freedom must
+  // fit better by more than its freedom buys), both to the power 1 / T (the temperature,
+  // LocatorOptions::link_temperature), times the point's share (log_point_share).
+  double probability = 0;
 };
 
 // What one fit found. `link` 0 when nothing could be fitted (no sample, or no candidate body).
@@ -127,8 +150,25 @@ struct Location {
   double t_peak = 0;                                 // s, time of that sample
   double impulse = 0;                                // integral of |force| over the samples, N s
   double chi2 = 0;                                   // weighted residual sum of squares per degree of freedom
+  double noise_scale = 1;                            // the costs' variance scale (>= 1, in calibrated noise units^2)
   std::vector<CandidateFit> candidates;              // every body fitted, proximal first
 };
+
+// The smallest set of candidate links that holds `chosen` (the reported link; 0: none) and
+// whose probabilities (CandidateFit::probability) sum to at least `confidence` (0 < confidence
+// <= 1): `chosen`, then the others most probable first (ties: the more proximal), and that
+// sum. Empty (sum 0) without candidates.
+struct LinkSet {
+  std::vector<int> links;   // 1..nq, ascending
+  double probability = 0;   // their summed probability
+};
+LinkSet link_set(const std::vector<CandidateFit>& candidates, double confidence, int chosen = 0);
+
+// CandidateFit::probability from the costs and unknowns of `candidates` over `observations`
+// residual values, with the costs' variance scale `noise_scale` (> 0) and the temperature
+// `temperature` (> 0, LocatorOptions::link_temperature). Exposed for tests.
+void candidate_probabilities(std::vector<CandidateFit>& candidates, double observations, double noise_scale,
+                             double temperature = 1);
 
 // Finds contact points and forces on one model. Read-only after construction except for its
 // scratch; one per thread.

@@ -20,6 +20,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "momentum/core/file.hpp"
@@ -76,12 +77,21 @@ struct Event {
     double impulse = NAN;           // integral of |F|, N s
     double fit = NAN;               // weighted residual sum of squares per degree of freedom
     std::string seen;               // "point" (force and point determined), "force", "partial"
+    // What is known of the link (contact::Location::candidates): each candidate link with its
+    // posterior probability, most probable first; the smallest set of them whose probability
+    // reaches the stated confidence (ascending) and that probability; the probability that
+    // the event is a collision (NaN: no class rule with a slope, or not yet decided).
+    std::vector<std::pair<int, double>> link_probabilities;
+    std::vector<int> link_set;
+    double set_probability = NAN;
+    double collision_probability = NAN;
   } contact;
 };
 
 // Header line of an event file for `joints` joints (no trailing newline); `contact`: with the
-// contact columns class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen after
-// the peaks.
+// contact columns class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen,
+// links,link_set,p_set,p_collision after the peaks (links: `link:probability` pairs separated by
+// ';', most probable first; link_set: links separated by ';').
 std::string event_header(std::size_t joints, bool contact = false);
 // One event as a CSV line (no trailing newline); NaN t_end on onset rows is written empty, as
 // is every unknown contact field.
@@ -169,6 +179,7 @@ class EventReader {
   std::size_t c_end_ = 0, c_ended_by_ = 0;
   std::vector<std::size_t> c_peaks_;
   std::vector<std::size_t> c_contact_;  // the contact columns in header order (npos: absent)
+  std::vector<std::size_t> c_links_;    // links, link_set, p_set, p_collision (npos: absent)
 };
 
 // Reads a whole event file and returns its end rows (one per event, with the final joints,

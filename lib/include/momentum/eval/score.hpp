@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -38,9 +39,18 @@ struct Detection {
   std::string event_class;       // "contact", "collision", ""
   double peak_force = NAN;       // N
   Eigen::Vector3d point{NAN, NAN, NAN};  // in the final link's frame, m
+  double force_sd = NAN;         // N, the stated sd of the force
+  double point_sd = NAN;         // m, the stated 68% radius of the point
   double width = NAN;            // s, the residual's pulse width
   double rise = NAN;             // s, its rise time
   std::vector<double> peaks;     // per joint, Nm
+  // What identification states of itself (mo-detect's links, link_set, p_set, p_collision):
+  // each candidate link's probability, the link set at its confidence and that confidence's
+  // probability, the probability of a collision; empty / NaN when not stated.
+  std::vector<std::pair<int, double>> link_probabilities;
+  std::vector<int> link_set;
+  double set_probability = NAN;
+  double collision_probability = NAN;
 };
 
 // The truth of a campaign (mo-sim --truth): its contacts in onset order and its duration.
@@ -84,6 +94,45 @@ struct ContactOutcome {
   std::string event_class;          // the detecting event's class ("" when not classified)
   double force_error = NAN;         // |estimated - true peak force|, N (when both are known)
   double point_error = NAN;         // |estimated - true point|, m (when both are known, link right)
+  double force_sd = NAN, point_sd = NAN;  // the detecting event's stated uncertainties
+  std::vector<std::pair<int, double>> link_probabilities;  // the detecting event's (Detection)
+  std::vector<int> link_set;
+  double set_probability = NAN;
+  double collision_probability = NAN;
+};
+
+// How well stated probabilities hold: statements "this is true with probability p" and whether
+// each was. Reliability: the statements binned by p (bins of equal width over [0, 1], the last
+// closed), each bin's mean stated p against the share that came true.
+struct ReliabilityBin {
+  double low = 0, high = 0;     // the bin's range of p
+  int statements = 0, came_true = 0;
+  double mean_stated = NAN;     // mean p in the bin
+};
+struct Calibration {
+  int statements = 0, came_true = 0;
+  double brier = NAN;     // mean (p - outcome)^2, outcome 1 or 0 (0: perfect, 0.25: p = 0.5 always)
+  double log_loss = NAN;  // mean -ln(p of what happened), p kept within [1e-6, 1 - 1e-6]
+  std::vector<ReliabilityBin> bins;
+};
+// The calibration of `statements` (probability, came true), probabilities in [0, 1], in `bins`
+// (>= 1) bins. Statements with a probability that is not finite are left out.
+Calibration calibration(const std::vector<std::pair<double, bool>>& statements, int bins = 5);
+
+// The link sets of the detected contacts that state one (Detection::link_set).
+struct LinkSetStats {
+  int with_set = 0;           // detected contacts with a link set
+  int truth_in_set = 0;       // ... whose true link is in it
+  int truth_in_pair = 0;      // ... in a set of at most two links
+  double mean_size = NAN;     // links per set
+  double mean_stated = NAN;   // mean set probability (p_set): what truth_in_set / with_set should be
+  // Every candidate link's probability against whether it is the true link (an event whose
+  // true link is no candidate states probability 0 for it: one statement more, false, that
+  // came true).
+  Calibration links;
+  // The probability of a collision against the truth's clamp, over the detected contacts
+  // that state one.
+  Calibration classes;
 };
 
 struct DelayStats {
@@ -97,6 +146,11 @@ struct IdentificationStats {
   DelayStats force_error;               // N
   DelayStats force_error_percent;       // % of the true peak force
   DelayStats point_error;               // m
+  // Coverage of the stated uncertainties: the contacts whose force error is within the event's
+  // stated f_sd (one standard deviation: about 68% should be), and whose point error is within
+  // its p_sd (a 68% radius), of those with both known.
+  int force_with_sd = 0, force_covered = 0;
+  int point_with_sd = 0, point_covered = 0;
 };
 
 struct LinkScore {
@@ -120,6 +174,7 @@ struct Score {
   int isolated_at_detection = 0;             // ... with the right link on the onset row
   DelayStats onset_error;                    // |t_onset_estimate - t_onset|, when given
   IdentificationStats identification;        // class, force and point against the truth
+  LinkSetStats link_sets;                    // the stated link sets and probabilities against the truth
   std::vector<LinkScore> by_link;            // ascending link
   std::vector<ContactOutcome> outcomes;      // per contact, onset order
   std::vector<double> false_alarm_times;     // t_detect of each false alarm
