@@ -734,8 +734,10 @@ if [[ $(sha256sum < "$target") != "$sha_start" ]]; then
   keep_old --kept "the profile changed during the night (updated in place by a tool, or by hand): the candidate," \
     "made from the profile as it was, is not installed over the change"
 fi
-backup="$backups/$name.$(date -u +%Y%m%dT%H%M%SZ).json"
-cp -p "$target" "$backup" || keep_old "cannot back up to $backup"
+# Stamped to the nanosecond, so that names sort in time order for --keep: stamped to the second,
+# two nights installed within one second (a rerun, a test) left one backup, the other overwritten.
+backup="$backups/$name.$(date -u +%Y%m%dT%H%M%S.%NZ).json"
+[[ ! -e $backup ]] && cp -p "$target" "$backup" || keep_old "cannot back up to $backup"
 install_temp=$(mktemp "$(dirname "$target")/.$(basename "$target").XXXXXX") ||
   keep_old "cannot create a temporary file beside $target"
 cat "$candidate" > "$install_temp" || keep_old "cannot write $install_temp"
