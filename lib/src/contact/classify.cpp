@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 
 #include "momentum/core/error.hpp"
+#include "momentum/detect/thresholds.hpp"
 
 namespace momentum::contact {
 
@@ -264,12 +265,8 @@ ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints)
 
 std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::string_view signal,
                                            std::size_t joints, const std::string& where) {
-  const auto thresholds = document.find("thresholds");
-  if (thresholds == document.end() || !thresholds->is_object()) return std::nullopt;
-  const auto entry = thresholds->find(std::string(signal));
-  if (entry == thresholds->end() || !entry->is_object()) return std::nullopt;
-  const auto found = entry->find("classify");
-  if (found == entry->end()) return std::nullopt;
+  const nlohmann::json* found = detect::thresholds_section(document, signal, "classify");
+  if (!found) return std::nullopt;
   const std::string key = "thresholds." + std::string(signal) + ".classify";
   try {
     ClassRule rule;

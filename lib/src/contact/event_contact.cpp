@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "momentum/core/error.hpp"
+#include "momentum/detect/thresholds.hpp"
 
 namespace momentum::contact {
 
@@ -153,12 +154,8 @@ std::optional<std::string_view> EventContact::decide() {
 
 std::optional<double> link_temperature_from_profile(const nlohmann::json& document, std::string_view signal,
                                                     const std::string& where) {
-  const auto thresholds = document.find("thresholds");
-  if (thresholds == document.end() || !thresholds->is_object()) return std::nullopt;
-  const auto entry = thresholds->find(std::string(signal));
-  if (entry == thresholds->end() || !entry->is_object()) return std::nullopt;
-  const auto identify = entry->find("identify");
-  if (identify == entry->end()) return std::nullopt;
+  const nlohmann::json* identify = detect::thresholds_section(document, signal, "identify");
+  if (!identify) return std::nullopt;
   const std::string key = "thresholds." + std::string(signal) + ".identify.link_temperature";
   const auto value = identify->is_object() ? identify->find("link_temperature") : identify->end();
   if (!identify->is_object() || value == identify->end() || !value->is_number())

@@ -77,6 +77,17 @@ bool Thresholds::IsValid(std::string* why) const {
   return true;
 }
 
+const nlohmann::json* thresholds_section(const nlohmann::json& document, std::string_view signal,
+                                         std::string_view name) {
+  if (!document.is_object()) return nullptr;
+  const auto thresholds = document.find("thresholds");
+  if (thresholds == document.end() || !thresholds->is_object()) return nullptr;
+  const auto entry = thresholds->find(std::string(signal));
+  if (entry == thresholds->end() || !entry->is_object()) return nullptr;
+  const auto section = entry->find(std::string(name));
+  return section == entry->end() ? nullptr : &*section;
+}
+
 std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document, Signal signal,
                                                   const std::string& where) {
   if (!document.is_object()) return std::nullopt;

@@ -419,9 +419,10 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       process(row, duplicate, nullptr, true);
       return;
     } else if (!impossible && !held[held_count - 1].impossible && agrees_with_last_held()) {
-      // The held rows were real: the sensors saw a fast change together. Asked first, so that
-      // a row that agrees with both (an impact within one interval, which the trapezoid over
-      // the longer interval may also pass) is observed, not left out.
+      // The held rows were real: the sensors saw a fast change together. Asked before the last
+      // good row (a velocity spike that came back excepted, above), so that a row that agrees
+      // with both (an impact within one interval, which the trapezoid over the longer interval
+      // may also pass) is observed, not left out.
       release_held(true);
       process(row, duplicate, nullptr, false);
       return;

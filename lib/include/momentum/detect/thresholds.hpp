@@ -105,6 +105,12 @@ struct Thresholds {
 std::optional<Thresholds> thresholds_from_profile(const nlohmann::json& document, Signal signal,
                                                   const std::string& where);
 
+// The section `name` of a signal's entry, document["thresholds"][signal][name] (the sections
+// that other stages own beside the thresholds: "classify", "identify"), or nullptr when the
+// document, its "thresholds" or the signal's entry has none (or is not an object there).
+const nlohmann::json* thresholds_section(const nlohmann::json& document, std::string_view signal,
+                                         std::string_view name);
+
 // The JSON entry of `thresholds` (the object under "thresholds"/<signal>).
 nlohmann::json thresholds_to_json(const Thresholds& thresholds);
 
