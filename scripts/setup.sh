@@ -10,6 +10,7 @@ packages=(build-essential cmake ninja-build pkg-config python3 git
   libcli11-dev libgtest-dev libbenchmark-dev scdoc groff-base gnuplot-nox valgrind zsh
   libzstd-dev liblz4-dev  # chunks of ROS 2 bags (MCAP)
   jq parallel  # the fleet example (share/momentum/examples/fleet/) and its test
+  slurm-wlm munge  # its Slurm array on a one-node cluster (tests/nightly/slurm_test.sh)
   python3-venv python3-dev  # the Python package (python/; PyPI packages: scripts/python-setup.sh)
   clang-14 libclang-rt-14-dev)  # clang: the sanitizer build and the libFuzzer targets
 

@@ -51,3 +51,31 @@ TEST(WhiteNoise, QuantisedNoiseIsNotRoundedToTheStep) {
   const double with_steps = std::sqrt(s * s + step * step / 12);
   EXPECT_NEAR(estimate(quantised), with_steps, 0.02 * with_steps);
 }
+
+// The sorted window gives RunningMedian's median bit for bit after every push: while the window
+// fills (odd and even counts) and once it slides, with repeated values (a stream's time steps
+// take few distinct values) and with arbitrary ones; and the median of a known window.
+TEST(SortedRunningMedian, EqualsRunningMedianAfterEveryPush) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> any(-1.0, 1.0);
+  std::uniform_int_distribution<int> few(0, 3);
+  for (int series = 0; series < 2; ++series) {
+    RunningMedian<16> reference;
+    SortedRunningMedian<16> sorted;
+    for (int k = 0; k < 2000; ++k) {
+      const double v = series == 0 ? any(rng) : 0.008 + 0.001 * few(rng);
+      reference.push(v);
+      const double expected = reference.update();
+      ASSERT_EQ(sorted.push(v), expected) << "series " << series << ", push " << k;
+      ASSERT_EQ(sorted.value(), expected);
+      ASSERT_EQ(sorted.full(), reference.full());
+    }
+  }
+  SortedRunningMedian<4> m;
+  EXPECT_EQ(m.value(), 0);
+  EXPECT_EQ(m.push(3), 3);
+  EXPECT_EQ(m.push(1), 2);     // {1, 3}
+  EXPECT_EQ(m.push(2), 2);     // {1, 2, 3}
+  EXPECT_EQ(m.push(10), 2.5);  // {1, 2, 3, 10}
+  EXPECT_EQ(m.push(0), 1.5);   // 3 leaves: {0, 1, 2, 10}
+}

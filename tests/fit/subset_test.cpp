@@ -125,3 +125,44 @@ TEST(SearchSubset, FitAgreesWithTheFullSearchWithinItsUncertainty) {
         << mf::kParameterNames[i] << ": subset " << a.value << ", full " << b.value;
   }
 }
+
+// The fit's subset (FitOptions::fit_subset, issue 30): on long data the polish and the
+// uncertainties see a bounded set of windows, so the fit's cost stops growing with the hours.
+// The metrics still count every sample; the uncertainties say what the subset determines (so
+// they are larger than those of a fit on every sample, in about the square root of the ratio
+// of the counts), and the estimate is within them of the fit on every sample and within three
+// of them of the truth.
+TEST(FitSubset, PolishAndUncertaintiesOnABoundedShareOfLongData) {
+  SyntheticOptions so = long_motion(61);
+  so.samples = 25000;  // 200 s at 125 Hz
+  const auto data = make_synthetic(kTable1[1], kPaperObserver, so);
+  fit::FitOptions options;
+  options.global.genetic = fit::quick_search();
+  options.compare_static = false;
+  options.fit_subset.max_samples = 4000;
+  const auto sub = fit::fit_joint(data.series, kPaperObserver, options, 7);
+  options.fit_subset.max_samples = 0;
+  const auto full = fit::fit_joint(data.series, kPaperObserver, options, 7);
+  ASSERT_TRUE(sub.model.fit_subset.used);
+  ASSERT_FALSE(full.model.fit_subset.used);
+  // Windows of at least 2 / K2 = 10 s (1,250 samples): the budget, overshot by one window at most.
+  EXPECT_LE(sub.model.fit_subset.counted, 4000u + 1250u);
+  EXPECT_GE(sub.model.fit_subset.counted, 4000u);
+  EXPECT_EQ(sub.model.fit_subset.counted_total, data.series.scored_count());
+  EXPECT_EQ(sub.model.metrics.samples, data.series.scored_count());
+  EXPECT_EQ(full.model.metrics.samples, data.series.scored_count());
+  EXPECT_LE(sub.model.metrics.cost, full.model.metrics.cost * 1.01);
+  double truth[mf::Parameters<double>::kSize];
+  kTable1[1].to_array(truth);
+  const double ratio = std::sqrt(static_cast<double>(data.series.scored_count()) / sub.model.fit_subset.counted);
+  for (int i = 2; i < 6; ++i) {
+    const auto& a = sub.model.estimates[static_cast<std::size_t>(i)];
+    const auto& b = full.model.estimates[static_cast<std::size_t>(i)];
+    ASSERT_TRUE(std::isfinite(a.standard_error) && std::isfinite(b.standard_error)) << mf::kParameterNames[i];
+    EXPECT_GT(a.standard_error, 0.5 * ratio * b.standard_error) << mf::kParameterNames[i];
+    EXPECT_LT(a.standard_error, 2.0 * ratio * b.standard_error) << mf::kParameterNames[i];
+    EXPECT_LT(std::abs(a.value - b.value), a.uncertainty)
+        << mf::kParameterNames[i] << ": subset " << a.value << ", full " << b.value;
+    EXPECT_LT(std::abs(a.value - truth[i]), 3 * a.uncertainty) << mf::kParameterNames[i];
+  }
+}

@@ -75,6 +75,7 @@ bool FitOptions::IsValid(std::string* why) const {
   if (!global.IsValid(why)) return false;
   if (!polish.IsValid(why)) return false;
   if (!search_subset.IsValid(why)) return false;
+  if (!fit_subset.IsValid(why)) return false;
   if (!(identifiability_threshold > 0)) return fail("identifiability threshold must be > 0");
   std::vector<Kind> kinds{kind};
   if (kind == Kind::lugre && compare_static) kinds.push_back(Kind::stribeck);
@@ -105,8 +106,8 @@ namespace {
 // Fits model `kind` to one joint: the problem, the global search over the box (on a subset of
 // the samples on long data), the polish, the uncertainty and the notes. `seed` seeds the search
 // and the noise draws; `joint` names the joint in progress and errors.
-// `starts` (physical units, free parameters): no global search, and no subset: each start is
-// polished on every sample.
+// `starts` (physical units, free parameters): no global search: each start is polished as the
+// search's runs are.
 ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind kind,
                    const FitOptions& options, std::uint64_t seed, int joint,
                    const JointProgressCallback& progress, const std::vector<std::vector<double>>& starts = {}) {
@@ -117,21 +118,33 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
   fit.asymmetric = options.asymmetric;
   fit.free = problem.free;
 
-  // The search's samples: all of them, or on long data a constant-size set of windows.
-  std::vector<std::size_t> segment_start, origin;
-  SubsetOptions subset_options = options.search_subset;
-  if (!starts.empty()) subset_options.max_samples = std::numeric_limits<std::size_t>::max();
-  const JointSeries subset = search_subset(data, gains, subset_options, &segment_start, &fit.subset, &origin);
-  std::optional<Problem> subset_problem;
-  if (fit.subset.used) {
-    subset_problem.emplace(subset, gains, kind, options);
-    std::vector<std::size_t> unknown;
-    for (std::size_t g : segment_start)
-      if (data.restart[origin[g]] == 0) unknown.push_back(g);
-    subset_problem->set_unknown_starts(unknown, gains.k2 > 0);
-  }
-  const Problem& search = fit.subset.used ? *subset_problem : problem;
-
+  // Windows of the data with the filter's slow state at each one's start solved for (subset.hpp):
+  // the problem on them, or nullopt when the subset is all the data.
+  auto subset_problem = [&](const SubsetOptions& subset_options, JointSeries& subset, SubsetSummary& summary) {
+    std::vector<std::size_t> segment_start, origin;
+    subset = search_subset(data, gains, subset_options, &segment_start, &summary, &origin);
+    std::optional<Problem> on;
+    if (summary.used) {
+      on.emplace(subset, gains, kind, options);
+      std::vector<std::size_t> unknown;
+      for (std::size_t g : segment_start)
+        if (data.restart[origin[g]] == 0) unknown.push_back(g);
+      on->set_unknown_starts(unknown, gains.k2 > 0);
+    }
+    return on;
+  };
+  // The fit's samples (the last polish, the ranking of end points, the uncertainties): all of
+  // them, or on long data a constant-size set of windows, so that the fit's cost is set by the
+  // model and not by the hours of data.
+  JointSeries fit_data;
+  const std::optional<Problem> fit_problem = subset_problem(options.fit_subset, fit_data, fit.fit_subset);
+  const Problem& fitting = fit_problem ? *fit_problem : problem;
+  // The search's samples: fewer still. The polish from each run's best (or each given start)
+  // goes there first, its end points are ranked on the fit's samples, and the best one is
+  // polished again on them (polish_fit).
+  JointSeries search_data;
+  const std::optional<Problem> search_problem = subset_problem(options.search_subset, search_data, fit.subset);
+  const Problem& search = search_problem ? *search_problem : fitting;
   // Global search in physical units over the free parameters' box.
   Bounds box;
   for (int i : problem.free) {
@@ -166,10 +179,13 @@ ModelFit fit_model(const JointSeries& data, const observer::Gains& gains, Kind k
   fit.global_metrics = metrics_of(problem, fit.parameters);
   fit.evaluations = fit.global.evaluations;
 
-  // Polish, then the uncertainty of the estimate and the notes on every parameter.
-  const Eigen::MatrixXd jacobian = polish_fit(problem, search, options, joint, progress, fit);
+  // Polish on the fit's samples, then the uncertainty of the estimate from them, the metrics
+  // from every sample and the notes on every parameter.
+  const Eigen::MatrixXd jacobian = polish_fit(fitting, search, options, joint, progress, fit);
   fit.metrics = metrics_of(problem, fit.parameters);
-  const ParameterUncertainty uncertainty = estimate_uncertainty(problem, data, gains, options, seed, jacobian, fit);
+  const double fitting_cost = fit_problem ? fitting.cost(fit.parameters) : fit.metrics.cost;
+  const ParameterUncertainty uncertainty =
+      estimate_uncertainty(fitting, fit_problem ? fit_data : data, gains, options, seed, jacobian, fitting_cost, fit);
   annotate_estimates(problem, options, uncertainty, fit);
   fit.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return fit;

@@ -131,6 +131,12 @@ bool jacobian_pass(const Problem& problem, const std::vector<double>& x,
     jacobian.row(row) = -y.v.transpose();
     ++row;
   });
+  // On a subset, the residuals the cost sees: each segment's best multiple of the slow state's
+  // response removed, a linear projection, so the Jacobian's columns go through it too.
+  if (problem.has_nuisance()) {
+    problem.remove_nuisance(e.data());
+    for (Eigen::Index c = 0; c < jacobian.cols(); ++c) problem.remove_nuisance(jacobian.col(c).data());
+  }
   return true;
 }
 

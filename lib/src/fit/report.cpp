@@ -65,8 +65,15 @@ json model_json(const ModelFit& m) {
   out["polish"] = {{"iterations", m.polish_iterations},
                    {"residual_evaluations", m.polish_residual_evaluations},
                    {"jacobian_evaluations", m.polish_jacobian_evaluations},
-                   {"message", m.polish_message}};
-  out["covariance"] = {{"ok", m.covariance_ok},
+                   {"message", m.polish_message},
+                   {"subset", {{"used", m.fit_subset.used},
+                               {"segments", m.fit_subset.segments},
+                               {"samples", m.fit_subset.samples},
+                               {"counted", m.fit_subset.counted},
+                               {"counted_total", m.fit_subset.counted_total}}}};
+  // The counted samples the standard errors rest on (the fit's subset on long data).
+  out["covariance"] = {{"samples", m.fit_subset.used ? m.fit_subset.counted : m.metrics.samples},
+                       {"ok", m.covariance_ok},
                        {"condition_number", model::json_number(m.condition_number)},
                        {"autocorrelation_factor", model::json_number(m.autocorrelation_factor)},
                        {"note", m.covariance_note}};
@@ -241,8 +248,11 @@ std::string report_text(const FitReport& r) {
       out += printf_string("  global search rms %.4g Nm (%s), polish: %d iterations\n", m.global_metrics.rms,
                            m.global.message.c_str(), m.polish_iterations);
     if (m.subset.used)
-      out += printf_string("  searched on %zu of %zu counted samples (%zu windows), polished on all\n",
-                           m.subset.counted, m.subset.counted_total, m.subset.segments);
+      out += printf_string("  searched on %zu of %zu counted samples (%zu windows), ", m.subset.counted,
+                           m.subset.counted_total, m.subset.segments) +
+             (m.fit_subset.used ? printf_string("polished and uncertainties on %zu (%zu windows)\n", m.fit_subset.counted,
+                                                m.fit_subset.segments)
+                                : std::string("polished on all\n"));
     append_parameters(out, m, "  ");
     std::string strong;
     for (Eigen::Index a = 0; a < m.correlation.rows(); ++a)

@@ -16,6 +16,7 @@ bool SubsetOptions::IsValid(std::string* why) const {
   if (max_samples > 0 && max_samples < 8 * static_cast<std::size_t>(windows))
     return fail("search subset: at least 8 samples per window needed");
   if (!std::isfinite(warmup)) return fail("search subset: warm-up must be finite");
+  if (!std::isfinite(min_window)) return fail("search subset: window length must be finite");
   return true;
 }
 
@@ -96,7 +97,11 @@ JointSeries search_subset(const JointSeries& data, const observer::Gains& gains,
     if (c >= 0) ++s.strata_total[static_cast<std::size_t>(c)];
 
   // Windows on a grid of `length` samples, each with its counted samples per stratum.
-  const std::size_t length = std::max<std::size_t>(8, options.max_samples / static_cast<std::size_t>(options.windows));
+  const double dt = data.median_dt();
+  const double min_window = options.min_window >= 0 ? options.min_window : (gains.k2 > 0 ? 2.0 / gains.k2 : 0.0);
+  const std::size_t shortest = dt > 0 ? static_cast<std::size_t>(std::ceil(min_window / dt)) : 0;
+  const std::size_t length =
+      std::max<std::size_t>({8, options.max_samples / static_cast<std::size_t>(options.windows), shortest});
   const std::size_t count = (n + length - 1) / length;
   std::vector<std::array<std::uint32_t, kSubsetStrata>> histogram(count);
   for (auto& h : histogram) h.fill(0);
@@ -152,7 +157,6 @@ JointSeries search_subset(const JointSeries& data, const observer::Gains& gains,
 
   // Warm-up before each run of chosen windows.
   double warmup = options.warmup > 0 ? options.warmup : 5.0 / gains.k1;
-  const double dt = data.median_dt();
   const std::size_t warm = std::max<std::size_t>(3, dt > 0 ? static_cast<std::size_t>(std::ceil(warmup / dt)) : 3);
   JointSeries out;
   out.joint = data.joint;

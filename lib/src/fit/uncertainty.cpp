@@ -92,7 +92,8 @@ Eigen::MatrixXd bartlett_score_covariance(const Eigen::MatrixXd& scores, const s
 
 ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSeries& data,
                                           const observer::Gains& gains, const FitOptions& options,
-                                          std::uint64_t seed, const Eigen::MatrixXd& jacobian, ModelFit& fit) {
+                                          std::uint64_t seed, const Eigen::MatrixXd& jacobian, double cost,
+                                          ModelFit& fit) {
   const std::size_t nfree = problem.free.size();
   // The residuals, and their sample numbers (the counted samples only, as the Jacobian's rows).
   std::vector<double> residuals;
@@ -104,9 +105,11 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
       residuals.push_back(d.r[k] - y);
       residual_index.push_back(k);
     });
+    // On a subset, as the cost and the Jacobian see them (jacobian_at).
+    if (problem.has_nuisance()) problem.remove_nuisance(residuals.data());
   }
   const double dof = static_cast<double>(problem.scored) - static_cast<double>(nfree);
-  const double variance = dof > 0 ? 2.0 * fit.metrics.cost / dof : std::numeric_limits<double>::quiet_NaN();
+  const double variance = dof > 0 ? 2.0 * cost / dof : std::numeric_limits<double>::quiet_NaN();
 
   // The Jacobian with unit columns: its condition number, and its null directions (singular
   // values below 1e-7 of the largest, i.e. eigenvalues of J^T J below Ceres' default 1e-14).
@@ -178,7 +181,8 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
       Eigen::MatrixXd sub(jacobian.rows(), static_cast<Eigen::Index>(keep.size()));
       for (std::size_t c = 0; c < keep.size(); ++c) sub.col(static_cast<Eigen::Index>(c)) = jacobian.col(keep[c]);
       const Eigen::ColPivHouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(sub);  // in place: no copy
-      auto absorb = [&](const Eigen::VectorXd& dy, std::vector<double>& out) {
+      auto absorb = [&](Eigen::VectorXd dy, std::vector<double>& out) {
+        if (problem.has_nuisance()) problem.remove_nuisance(dy.data());  // as the Jacobian's columns
         const Eigen::VectorXd dx = qr.solve(dy);
         for (std::size_t c = 0; c < keep.size(); ++c) {
           const auto j = static_cast<std::size_t>(keep[c]);

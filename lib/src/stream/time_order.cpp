@@ -61,8 +61,7 @@ void TimeOrder::keep(Row&& row) {
     const double dt = t - last_t_;
     row.mark = median_dt_ > 0 && dt > kStepFactor * median_dt_ ? TimeMark::gap : TimeMark::none;
     if (row.mark == TimeMark::gap) ++summary_.gaps;
-    step_median_.push(dt);
-    median_dt_ = step_median_.update();
+    median_dt_ = step_median_.push(dt);
   }
   have_last_ = true;
   last_t_ = t;

@@ -56,4 +56,44 @@ class RunningMedian {
   double median_ = 0;
 };
 
+// The same median of the last N values as RunningMedian (bit for bit: the same element, the same
+// mean of the two middle ones), kept up to date on every push by moving the values of a sorted
+// copy of the window instead of selecting from it: about N/2 moves a push where update() is an
+// nth_element a call, for a caller that needs the median after every value (a stream's time
+// step, row by row). Finite values only (a NaN has no place in the sorted copy).
+template <int N>
+class SortedRunningMedian {
+ public:
+  static_assert(N > 0);
+  // Records `value` (finite) and returns the median of the window, as RunningMedian's update().
+  double push(double value) {
+    if (count_ == N) {
+      // The value leaving the window: the first equal to it in the sorted copy (equal values are
+      // interchangeable) closes its gap.
+      const double old = window_[next_];
+      int at = static_cast<int>(std::lower_bound(sorted_, sorted_ + count_, old) - sorted_);
+      std::copy(sorted_ + at + 1, sorted_ + count_, sorted_ + at);
+      --count_;
+    }
+    window_[next_] = value;
+    next_ = (next_ + 1) % N;
+    int at = static_cast<int>(std::upper_bound(sorted_, sorted_ + count_, value) - sorted_);
+    std::copy_backward(sorted_ + at, sorted_ + count_, sorted_ + count_ + 1);
+    sorted_[at] = value;
+    ++count_;
+    const int mid = count_ / 2;
+    median_ = count_ % 2 == 0 ? 0.5 * (sorted_[mid] + sorted_[mid - 1]) : sorted_[mid];
+    return median_;
+  }
+  double value() const { return median_; }  // 0 before the first push
+  bool full() const { return count_ == N; }
+
+ private:
+  double window_[N] = {};
+  double sorted_[N] = {};
+  int count_ = 0;
+  int next_ = 0;
+  double median_ = 0;
+};
+
 }  // namespace momentum::core

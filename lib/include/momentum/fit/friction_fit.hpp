@@ -84,9 +84,14 @@ struct FitOptions {
   GlobalOptions global;    // method, genetic settings (paper defaults), seed
   PolishOptions polish;
   // The samples the global search (and the polish from each of its runs) sees: a constant-size
-  // set of windows on long data (subset.hpp). The final polish, the metrics and the
-  // uncertainties use every sample.
+  // set of windows on long data (subset.hpp).
   SubsetOptions search_subset;
+  // The samples the last polish, the refit from the Stribeck fit (refit_from_static), the
+  // ranking of the polished end points and the uncertainties see: a larger constant-size set of
+  // windows chosen the same way, so that the fit's cost stops growing with the hours of data
+  // (the uncertainties then say what this many samples determine: ModelFit::fit_subset). The
+  // metrics (cost, rms, r^2) and the comparison with other fits use every sample.
+  SubsetOptions fit_subset{10000, 40, 0, -1};
   // Also fit the static Stribeck model and report it beside LuGre (LuGre fits only).
   bool compare_static = true;
   // Fit direction-dependent levels (delta_c, delta_s: friction::Parameters) as well, and the
@@ -119,8 +124,9 @@ struct ParameterEstimate {
   double value = 0;
   bool free = false;            // fitted (false: fixed by the user, or unused by the model)
   bool used = false;            // the model uses it
-  // Standard error (same unit as the value), from every counted sample; NaN when not free or when the covariance could
-  // not be computed.
+  // Standard error (same unit as the value), from the counted samples of the fit's subset
+  // (ModelFit::fit_subset: every sample on short data); NaN when not free or when the
+  // covariance could not be computed.
   double standard_error = std::numeric_limits<double>::quiet_NaN();
   // How far the estimate moves (same unit, first order) when the model resolves the motion
   // within each sample interval (4 sub-steps, velocity interpolated) instead of once per
@@ -153,6 +159,9 @@ struct ModelFit {
   FitMetrics global_metrics;                        // of the global search's best
   GlobalSummary global;                             // the global search
   SubsetSummary subset;                             // the samples the global search saw
+  // The samples the polish ended on and the uncertainties come from (FitOptions::fit_subset);
+  // fit_subset.counted is the uncertainties' effective sample count.
+  SubsetSummary fit_subset;
   // The polish: Ceres iterations, residual and Jacobian evaluations, its message.
   int polish_iterations = 0;
   std::uint64_t polish_residual_evaluations = 0;
@@ -207,8 +216,9 @@ FitMetrics evaluate_fit(const JointSeries& data, const observer::Gains& gains, f
 // without a Stribeck effect (w_s under every counted speed), where the cost is flat in tau_s
 // and w_s and no polish leaves it. Fits LuGre again from the Stribeck fit's parameters, the
 // bristles at the two ends of their box (soft and damped, stiff and undamped: the data rarely
-// determine them, and they trade against each other), each start polished on every sample, and
-// keeps the better fit by the cost over all samples; its polish message then says so. Does
+// determine them, and they trade against each other), each start polished as the search's runs
+// are (on the search's and then the fit's samples: FitOptions::fit_subset), and keeps the better
+// fit by the cost over all samples; its polish message then says so. Does
 // nothing for another model, without a static fit, or when LuGre is not worse. fit_joint and
 // fit_joints call it.
 void refit_from_static(JointFit& r, const JointSeries& data, const observer::Gains& gains, const FitOptions& options,

@@ -31,6 +31,13 @@ struct SubsetOptions {
   // Seconds the model runs before each segment without counting them; <= 0: 5 / K1 (five time
   // constants of the observer's fast pole), at least 3 samples.
   double warmup = 0;
+  // Seconds a window lasts at least (fewer, longer windows when max_samples / windows samples
+  // last less); < 0: 2 / K2 for the second-order observer, 0 for the first-order one. The slow
+  // state's response, solved for per segment, then decays to e^-2 within a window, which tells
+  // it from a constant offset: in short windows it absorbs the friction level of every window
+  // without a reversal, and the cost is flat in the levels (a 1 kHz log cut into 0.25 s windows
+  // fitted the Stribeck velocity 10 times too small).
+  double min_window = 0;
 
   // False (reason in `why`) for windows < 1, or a window budget below 8 samples per window.
   bool IsValid(std::string* why) const;

@@ -27,13 +27,15 @@ struct ParameterUncertainty {
   std::vector<std::string> undetermined;     // why the data do not determine it; empty if they do
 };
 
-// The uncertainty of the estimate fit.parameters of `problem` (built on `data` with `gains`),
-// from `jacobian` (as polish_fit returns it; 0 x 0 when unavailable). `seed` seeds the velocity
+// The uncertainty of the estimate fit.parameters of `problem` (built on `data` with `gains`:
+// all of a joint's samples or a subset of them), from `jacobian` (as polish_fit returns it; 0 x 0
+// when unavailable) and `cost` (problem.cost at the estimate, Nm^2). `seed` seeds the velocity
 // noise draws. Sets fit.condition_number, fit.autocorrelation_factor, fit.velocity_noise,
 // fit.correlation, fit.covariance_ok and fit.covariance_note.
 ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSeries& data,
                                           const observer::Gains& gains, const FitOptions& options,
-                                          std::uint64_t seed, const Eigen::MatrixXd& jacobian, ModelFit& fit);
+                                          std::uint64_t seed, const Eigen::MatrixXd& jacobian, double cost,
+                                          ModelFit& fit);
 
 // The upper triangular factor R of a tall matrix a = Q R (a.cols() square), by Householder QR
 // of R stacked on one chunk of rows after another: the memory of a chunk, not a copy of a.

@@ -115,7 +115,7 @@ class TimeOrder {
   bool have_last_ = false;
   double last_t_ = 0;
   static constexpr double kStepFactor = 1.5;
-  core::RunningMedian<16> step_median_;
+  core::SortedRunningMedian<16> step_median_;
   double median_dt_ = 0;
 };
 
