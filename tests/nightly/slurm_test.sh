@@ -231,7 +231,7 @@ check "each robot's line from Slurm equals its line from GNU parallel, the clock
 import json, re, sys
 parallel, slurm, fleet_parallel, fleet = sys.argv[1:]
 # (and the nightly script's scratch folder, mktemp's, named in the profile's provenance)
-stamp = re.compile(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d+)?Z|\d{8}T\d{6}Z|momentum-nightly\.\w{6}")
+stamp = re.compile(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d+)?Z|\d{8}T\d{6}(\.\d+)?Z|momentum-nightly\.\w{6}")
 def clockless(x):
     if isinstance(x, dict):
         return {k: clockless(v) for k, v in x.items()
