@@ -111,8 +111,10 @@ def test_detect_equals_mo_detect(sim):
         assert list(got) == list(want)
         for key, text in want.items():
             value = got[key]
-            if key == "joints":
-                assert ";".join(map(str, value)) == text
+            if key in ("joints", "link_set"):
+                assert ";".join(map(str, value)) == text, key
+            elif key == "links":
+                assert value == {int(k): float(p) for k, p in (i.split(":") for i in text.split(";") if i)}, key
             elif isinstance(value, float):
                 assert (math.isnan(value) and text == "") or value == float(text), key
             else:

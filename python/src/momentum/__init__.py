@@ -345,8 +345,11 @@ def _event_record(row: dict) -> dict:
             record[key] = text
         elif key in _EVENT_INTEGERS:
             record[key] = int(text)
-        elif key == "joints":
+        elif key in ("joints", "link_set"):
             record[key] = tuple(int(j) for j in text.split(";") if j)
+        elif key == "links":
+            # "link:probability;...", most probable first: a dict keeps that order.
+            record[key] = {int(link): float(p) for link, p in (item.split(":") for item in text.split(";") if item)}
         else:
             record[key] = float(text) if text else math.nan
     return record
@@ -363,7 +366,8 @@ def detect(profile: Union[Profile, PathLike, None], residuals: Any, *, signal: O
     mo-detect's event rows as records, in order: a list of dicts with the keys of its event
     format (man mo-detect, EVENT FORMAT): t_onset_estimate, t_detect, link, joints (a tuple),
     kind ("onset" or "end"), event, t_end, ended_by, peak<j>, and the contact columns with a
-    model and q; empty fields are NaN or "". The list is an Events, whose `summary` holds the
+    model and q (links: a dict link -> probability, most probable first; link_set: a tuple);
+    empty fields are NaN or "". The list is an Events, whose `summary` holds the
     run's counts (rows, events, collisions, blind time); pandas=True: a DataFrame instead. Options as mo-detect's; identify=False
     is --no-identify. Raises momentum.Error as the tool fails (exit status 2)."""
     a = _core.DetectArguments()
