@@ -20,17 +20,7 @@ done
 tmp=$(mktemp -d)
 trap '[[ -n ${KEEP:-} ]] || rm -rf "$tmp"' EXIT
 echo "work: $tmp" >&2
-failures=0
-check() {  # description command...
-  local what=$1
-  shift
-  if "$@"; then
-    echo "ok: $what"
-  else
-    echo "FAILED: $what"
-    failures=$((failures + 1))
-  fi
-}
+source "$(dirname "$0")/helpers.sh"
 
 # Syntax of every script of the examples, and the YAML.
 for f in "$fleet_dir"/*.sh "$fleet_dir"/*.sbatch "$SRC/share/momentum/examples/nightly-recalibrate.sh"; do
@@ -74,26 +64,23 @@ for joint in p["simulation"]["friction"]["joints"]:
         joint[key] *= scale
 json.dump(p, open(worn, "w"), indent=1)
 EOF
-sim() {  # seed out [options]
-  mo-sim -q -p "${plant:-$tmp/paper-arm.json}" --seed "$1" --rate 125 --duration 30 "${@:3}" -o "$2" || echo "mo-sim failed for $2"
-}
 mkdir -p "$fleet/robots/arm-"{a,b,c,d}"/logs/$day" "$fleet2/robots/arm-e/logs/$day"
-sim 100 "$tmp/commissioning.csv" &
-sim 11 "$fleet/robots/arm-a/logs/$day/log-1.csv" &
+sim_log 100 "$tmp/commissioning.csv" &
+sim_log 11 "$fleet/robots/arm-a/logs/$day/log-1.csv" &
 wait
-sim 12 "$fleet/robots/arm-a/logs/$day/log-2.csv" &
-sim 21 "$fleet/robots/arm-b/logs/$day/log-1.csv" --collisions 1 --min-spacing 5 &
+sim_log 12 "$fleet/robots/arm-a/logs/$day/log-2.csv" &
+sim_log 21 "$fleet/robots/arm-b/logs/$day/log-1.csv" --collisions 1 --min-spacing 5 &
 wait
-sim 22 "$fleet/robots/arm-b/logs/$day/log-2.csv" &
-sim 31 "$fleet/robots/arm-c/logs/$day/log-1.csv" &
+sim_log 22 "$fleet/robots/arm-b/logs/$day/log-2.csv" &
+sim_log 31 "$fleet/robots/arm-c/logs/$day/log-1.csv" &
 wait
-sim 32 "$fleet/robots/arm-c/logs/$day/log-2.csv" &
-plant=$tmp/worn/paper-arm.json sim 41 "$fleet/robots/arm-d/logs/$day/log-1.csv" &
+sim_log 32 "$fleet/robots/arm-c/logs/$day/log-2.csv" &
+plant=$tmp/worn/paper-arm.json sim_log 41 "$fleet/robots/arm-d/logs/$day/log-1.csv" &
 wait
-plant=$tmp/worn/paper-arm.json sim 42 "$fleet/robots/arm-d/logs/$day/log-2.csv" &
-sim 51 "$fleet2/robots/arm-e/logs/$day/log-1.csv" &
+plant=$tmp/worn/paper-arm.json sim_log 42 "$fleet/robots/arm-d/logs/$day/log-2.csv" &
+sim_log 51 "$fleet2/robots/arm-e/logs/$day/log-1.csv" &
 wait
-sim 32 "$fleet2/robots/arm-e/logs/$day/log-2.csv" --collisions 1 --min-spacing 5 --truth "$tmp/arm-e.truth" &
+sim_log 32 "$fleet2/robots/arm-e/logs/$day/log-2.csv" --collisions 1 --min-spacing 5 --truth "$tmp/arm-e.truth" &
 mo-observe -q -p "$tmp/paper-arm.json" "$tmp/commissioning.csv" --output-format bin -o "$tmp/commissioning.bin" &&
   mo-calibrate -q -p "$tmp/paper-arm.json" --margin-percent 30 "$tmp/commissioning.bin" > /dev/null ||
   echo "commissioning failed"

@@ -38,17 +38,7 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 143' TERM INT
 echo "work: $tmp" >&2
-failures=0
-check() {  # description command...
-  local what=$1
-  shift
-  if "$@"; then
-    echo "ok: $what"
-  else
-    echo "FAILED: $what"
-    failures=$((failures + 1))
-  fi
-}
+source "$(dirname "$0")/helpers.sh"
 fatal() {
   echo "FAILED: $1"
   local f
@@ -134,7 +124,7 @@ day=2024-05-17
 pristine=$tmp/pristine fleet=$tmp/fleet
 cp "$SRC/share/momentum/robots/paper-arm/paper-arm.json" "$SRC/share/momentum/robots/paper-arm/paper-arm.urdf" "$tmp/"
 sim() {  # seed out [options]: in the background, its pid in `sims`
-  mo-sim -q -p "$tmp/paper-arm.json" --seed "$1" --rate 125 --duration 30 "${@:3}" -o "$2" || echo "mo-sim failed for $2" &
+  sim_log "$@" &
   sims+=($!)
 }
 settle() { wait "${sims[@]}"; sims=(); }  # not `wait`: that would wait for the daemons too
