@@ -41,11 +41,12 @@ phase "python package"
 # MOMENTUM_FULL_SANITIZE=0: only the stages that parse outside input and their unit tests, for
 # a quick local run.
 if [[ ${MOMENTUM_FULL_SANITIZE:-1} == 1 ]]; then
-  # The unit tests of the stages that read outside input or judge it (core to detect); those
+  # The unit tests of the stages that read outside input or judge it (core to detect, and the
+  # drivers that run them over streams); those
   # of the numerical stages (friction, fit, contact, sim, eval, dynfit: 470 of the 900 CPU
   # seconds the sanitized unit tests take to compile) are left to the normal build, and their
   # code runs sanitized through the tools in the golden cases and the hostile test.
-  sanitize_stages="core;stream;cli;can;model;observer;detect"
+  sanitize_stages="core;stream;cli;can;model;observer;detect;drivers"
   sanitize_targets=()
   sanitize_tests=(-LE 'slow|heavy')
   # The unit tests that took over half a second in the normal run above (its cost file) are

@@ -1,12 +1,13 @@
 // mo-calibrate: per-joint collision thresholds from collision-free motion, into the profile
-// (detect::calibrate_streams); with --classes, the contact/collision rule (eval::learn_classes).
+// (drivers::calibrate_streams); with --classes, the contact/collision rule (drivers::learn_classes).
+#include <cstdio>
 #include <memory>
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/core/file.hpp"
-#include "momentum/detect/calibrate_streams.hpp"
-#include "momentum/eval/classes.hpp"
+#include "momentum/drivers/calibrate_streams.hpp"
+#include "momentum/drivers/learn_classes.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum;
@@ -19,7 +20,7 @@ int main(int argc, char** argv) {
   std::string output, signals_option, rule = "rate";
   double margin = 0, max_rise = 0;
   bool envelope = false, no_rest = false, reject_contact = false, dry_run = false;
-  detect::CalibrateStreamsOptions streams;
+  drivers::CalibrateStreamsOptions streams;
   detect::CalibrationOptions& options = streams.calibration;
   auto& app = tool.app();
   app.add_option("-o,--output", output, "write the updated profile to FILE instead of replacing -p")->type_name("FILE");
@@ -86,12 +87,14 @@ int main(int argc, char** argv) {
     std::unique_ptr<core::FileLock> lock;
     if (!classes_path.empty()) {
       if (!tool.inputs().empty()) throw cli::UsageError("--classes learns from events, not from residual streams");
-      const eval::LearnClassesOptions learn{classes_path, truth_path, tool.profile(), output, dry_run,
+      const drivers::LearnClassesOptions learn{classes_path, truth_path, tool.profile(), output, dry_run,
                                             signals_option.empty() ? "mu" : signals_option, tool.strict()};
       std::string why;
       if (!learn.IsValid(&why)) throw cli::UsageError(why);
       if (writes) lock = cli::lock_for_update(destination);
-      eval::learn_classes(learn);
+      const drivers::LearnClassesResult learnt = drivers::learn_classes(learn);
+      // Beside a profile written to standard output, the report goes to standard error.
+      std::fputs(drivers::format_learn_classes(learnt).c_str(), output == "-" ? stderr : stdout);
       return cli::kSuccess;
     }
     if (*margin_option) options.margin_nm = margin;
@@ -102,7 +105,7 @@ int main(int argc, char** argv) {
     streams.max_rise = max_rise;
     streams.rest_on_r = rest_signal == "r";
     streams.reject_contact = reject_contact;
-    streams.format = format == "jsonl" ? detect::ReportFormat::jsonl : detect::ReportFormat::text;
+    streams.format = format == "jsonl" ? drivers::ReportFormat::jsonl : drivers::ReportFormat::text;
     streams.profile_path = tool.profile();
     streams.output = output;
     streams.dry_run = dry_run;
@@ -119,7 +122,7 @@ int main(int argc, char** argv) {
     streams.open_input = [&](const std::string& path) { return tool.open_input(path); };
     std::vector<std::string> inputs = tool.inputs();
     if (inputs.empty()) inputs.push_back("-");
-    detect::calibrate_streams(inputs, streams);
+    drivers::calibrate_streams(inputs, streams);
     if (tool.profile().empty() && !dry_run)
       warn("no profile (-p): the report only, nothing written (give -p to update a profile)");
     return cli::kSuccess;

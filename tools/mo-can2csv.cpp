@@ -1,6 +1,6 @@
 // mo-can2csv: candump text (any of its formats) or a live SocketCAN interface, decoded with a
 // DBC file, into a sample stream with one row per control cycle (or, with --long, one row per
-// decoded signal). The work is can::Converter's; this file is the command line.
+// decoded signal). The work is drivers::Converter's; this file is the command line.
 #include <signal.h>
 
 #include <climits>
@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "momentum/can/convert.hpp"
+#include "momentum/drivers/can_convert.hpp"
 #include "momentum/cli/tool.hpp"
 #include "momentum/cli/whole_number.hpp"
 #include "momentum/stream/format.hpp"
@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
   cli::Tool tool("mo-can2csv", "Decode CAN captures (candump text or live SocketCAN) into a sample stream.");
   tool.app().footer("\nExample:\n  candump -L can0 | mo-can2csv --dbc arm.dbc > arm.csv\n\nMore: man mo-can2csv");
   tool.add_inputs("candump text files, concatenated; - or none: stdin");
-  can::ConvertOptions o;
+  drivers::ConvertOptions o;
   std::string output_format = "csv", timestamps = "auto", stats_format = "text";
   bool stats = false;
   auto& app = tool.app();
@@ -82,11 +82,11 @@ int main(int argc, char** argv) {
     // the last cycle written and --stats printed.
     install(SIGINT, on_stop);
     install(SIGTERM, on_stop);
-    can::Converter converter(o);
+    drivers::Converter converter(o);
     auto print_stats = [&] {
-      const can::ConvertSummary s = converter.summary();
-      const std::string text = stats_format == "jsonl" ? can::summary_json_line(s)
-                                                      : can::format_summary(s, "mo-can2csv: stats: ");
+      const drivers::ConvertSummary s = converter.summary();
+      const std::string text = stats_format == "jsonl" ? drivers::summary_json_line(s)
+                                                      : drivers::format_summary(s, "mo-can2csv: stats: ");
       std::fwrite(text.data(), 1, text.size(), stderr);
       std::fflush(stderr);
     };

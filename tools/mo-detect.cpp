@@ -1,5 +1,5 @@
 // mo-detect: collision events from residuals, live or on recorded logs. Exit status as grep:
-// 0 no collision, 1 collision, 2 error. The work is detect::StreamDetector's.
+// 0 no collision, 1 collision, 2 error. The work is drivers::StreamDetector's.
 #include <csignal>
 #include <cstdio>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/contact/event_contact.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/detect/stream_detector.hpp"
+#include "momentum/drivers/stream_detector.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum;
@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
   tool.add_profile(/*required=*/false);
   std::string signal_option, threshold_list;
   bool constant = false, stats = false, no_identify = false;
-  detect::StreamDetectorOptions options;
+  drivers::StreamDetectorOptions options;
   double onset_band = 0;
   auto& app = tool.app();
   app.add_option("--signal", signal_option, "mu or r (default: mu when present, else r)")
@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
       if (!threshold_list.empty()) options.constant_thresholds = cli::parse_number_list(threshold_list, "--threshold");
       options.profile_path = tool.profile();
       options.output = tool.output();
-      options.format = format == "jsonl" ? detect::EventFormat::jsonl : detect::EventFormat::csv;
+      options.format = format == "jsonl" ? drivers::EventFormat::jsonl : drivers::EventFormat::csv;
       options.measure_latency = stats;
       options.comments = {tool.provenance()};
       options.open_input = [&](const std::string& path, stream::ReaderOptions o) { return tool.open_input(path, o); };
@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
                                                                                              : "--link-confidence: ") +
                               why);
       if (!no_identify) options.annotator = contact::annotator_factory(locator, tool.profile());
-      const auto summary = detect::StreamDetector(options).run(tool.inputs().empty() ? "-" : tool.inputs().front());
+      const auto summary = drivers::StreamDetector(options).run(tool.inputs().empty() ? "-" : tool.inputs().front());
       auto at = [&](double t) { return std::isfinite(t) ? " at t=" + core::exact(t) : std::string(" before the first row"); };
       if (summary.output_closed) {
         // Whoever reads the events went away: what follows was not detected on, so "no
@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
         if (!summary.finished) return kNoRows;
       }
       if (!summary.blind_text.empty()) warn(summary.blind_text);
-      if (stats && summary.finished) std::fputs(detect::format_stream_detector_stats(summary, "mo-detect").c_str(), stderr);
+      if (stats && summary.finished) std::fputs(drivers::format_stream_detector_stats(summary, "mo-detect").c_str(), stderr);
       if (summary.collisions > 0) return kCollision;
       if (summary.blind_share > max_blind) {
         char share[64];

@@ -13,7 +13,7 @@
 #include "momentum/friction/friction.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/observer/observe_stream.hpp"
+#include "momentum/drivers/observe_stream.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum;
@@ -55,8 +55,8 @@ int main(int argc, char** argv) {
     const model::Model robot = model::build_model(profile);
     tool.set_chain_joints(robot.joint_names());  // a bag's joints are matched to them by name
 
-    observer::ObserveStreamOptions options;
-    options.observer = observer::observer_options_from_profile(profile);
+    drivers::ObserveStreamOptions options;
+    options.observer = drivers::observer_options_from_profile(profile);
     observer::ObserverOptions& o = options.observer;
     if (order) o.order = *order;
     if (!k1.empty() && !cutoff.empty()) throw cli::UsageError("give either --k1 or --cutoff, not both");
@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
     }
 
     std::optional<friction::FrictionModel> friction;
-    if (!no_friction) friction = observer::friction_from_profile(profile, robot.nq);
+    if (!no_friction) friction = drivers::friction_from_profile(profile, robot.nq);
     const bool friction_options = deadband || velocity_cutoff || !update.empty();
     if (friction_options && !friction) {
       warn("--friction-deadband, --friction-cutoff and --lugre-update have no effect without a friction model");
@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
       progress.update(line);
     };
     auto in = tool.open_input(input);
-    observer::StreamObserver observe(*in, robot, options);
+    drivers::StreamObserver observe(*in, robot, options);
     auto out = tool.open_output(*in);
     observe.run(*out);  // skipped rows and the exit status they give: cli::Tool's rows policy
     out->close();

@@ -6,7 +6,7 @@
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/cli/whole_number.hpp"
-#include "momentum/detect/plot_stream.hpp"
+#include "momentum/drivers/plot_stream.hpp"
 #include "momentum/eval/score.hpp"
 #include "momentum/stream/error.hpp"
 
@@ -94,13 +94,13 @@ int main(int argc, char** argv) {
       throw cli::UsageError(std::string("--signal: ") + e.what());
     }
     auto in = tool.open_input(tool.inputs().empty() ? "-" : tool.inputs().front());
-    const detect::PlotColumns columns = detect::plot_columns(*in, signals);
-    const auto thresholds = detect::plot_thresholds(tool.profile(), columns.signals, &options.friction_band);
+    const drivers::PlotColumns columns = drivers::plot_columns(*in, signals);
+    const auto thresholds = drivers::plot_thresholds(tool.profile(), columns.signals, &options.friction_band);
     std::vector<detect::Event> events;
     if (!events_path.empty()) events = detect::read_events(events_path);
     std::vector<detect::TruthContact> truth;
     if (!truth_path.empty()) truth = detect::read_truth(truth_path);
     const detect::PlotView view = detect::parse_plot_view(view_name);
-    return emit(detect::stream_plot_script(*in, columns, thresholds, view, events, truth, output, options));
+    return emit(drivers::stream_plot_script(*in, columns, thresholds, view, events, truth, output, options));
   });
 }

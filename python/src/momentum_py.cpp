@@ -27,13 +27,13 @@
 #include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/detect/calibrate_streams.hpp"
-#include "momentum/detect/stream_detector.hpp"
+#include "momentum/drivers/calibrate_streams.hpp"
+#include "momentum/drivers/stream_detector.hpp"
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/friction/friction.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/observer/observe_stream.hpp"
+#include "momentum/drivers/observe_stream.hpp"
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/writer.hpp"
@@ -194,12 +194,12 @@ struct ObserveArguments {
 py::tuple observe_stream(const LoadedProfile& loaded, const std::string& input, const std::string& display_name,
                          const std::string& output, const ObserveArguments& a, const std::vector<std::string>& comments) {
   Warnings warnings;
-  observer::ObserveStreamSummary summary;
+  drivers::ObserveStreamSummary summary;
   run_library(warnings, [&] {
     const model::Profile& profile = loaded.profile;
     const model::Model& robot = loaded.model;
-    observer::ObserveStreamOptions options;
-    options.observer = observer::observer_options_from_profile(profile);
+    drivers::ObserveStreamOptions options;
+    options.observer = drivers::observer_options_from_profile(profile);
     observer::ObserverOptions& o = options.observer;
     if (a.order) o.order = *a.order;
     if (a.k1 && a.cutoff) throw UsageError("give either k1 or cutoff, not both");
@@ -230,7 +230,7 @@ py::tuple observe_stream(const LoadedProfile& loaded, const std::string& input, 
       throw Error(located(profile.path.string(), 0, e.what()));
     }
     std::optional<friction::FrictionModel> friction;
-    if (a.friction) friction = observer::friction_from_profile(profile, robot.nq);
+    if (a.friction) friction = drivers::friction_from_profile(profile, robot.nq);
     const bool friction_options = a.friction_deadband || a.friction_cutoff || !a.lugre_update.empty();
     if (friction_options && !friction)
       warn("friction_deadband, friction_cutoff and lugre_update have no effect without a friction model");
@@ -250,7 +250,7 @@ py::tuple observe_stream(const LoadedProfile& loaded, const std::string& input, 
     reader_options.strict = a.strict;
     reader_options.display_name = display_name;
     auto in = stream::Reader::open(input, reader_options);
-    observer::StreamObserver observe(*in, robot, options);
+    drivers::StreamObserver observe(*in, robot, options);
     stream::WriterOptions writer_options;
     writer_options.encoding = stream::Encoding::binary;
     auto out = stream::Writer::open(output, writer_options);
@@ -293,7 +293,7 @@ py::tuple calibrate_streams(const std::string& profile_path, const std::vector<s
   std::string report;
   std::uint64_t rows = 0;
   run_library(warnings, [&] {
-    detect::CalibrateStreamsOptions streams;
+    drivers::CalibrateStreamsOptions streams;
     detect::CalibrationOptions& options = streams.calibration;
     if (a.false_alarm_rate) options.false_alarms_per_hour = *a.false_alarm_rate;
     if (a.peak_window) options.peak_window = *a.peak_window;
@@ -319,7 +319,7 @@ py::tuple calibrate_streams(const std::string& profile_path, const std::vector<s
     streams.max_rise = a.max_rise;
     streams.rest_on_r = a.rest_signal == "r";
     streams.reject_contact = a.reject_contact;
-    streams.format = a.format == "jsonl" ? detect::ReportFormat::jsonl : detect::ReportFormat::text;
+    streams.format = a.format == "jsonl" ? drivers::ReportFormat::jsonl : drivers::ReportFormat::text;
     streams.profile_path = profile_path;
     streams.output = output;
     streams.dry_run = dry_run;
@@ -345,7 +345,7 @@ py::tuple calibrate_streams(const std::string& profile_path, const std::vector<s
         if (inputs[i] == path) o.display_name = display_names[i];
       return stream::Reader::open(path, o);
     };
-    for (const auto& result : detect::calibrate_streams(inputs, streams)) {
+    for (const auto& result : drivers::calibrate_streams(inputs, streams)) {
       thresholds.emplace_back(std::string(detect::signal_name(result.thresholds.signal)),
                               detect::thresholds_to_json(result.thresholds).dump());
       rows = result.rows;
@@ -369,9 +369,9 @@ struct DetectArguments {
 py::tuple detect_stream(const std::string& profile_path, const std::string& input, const std::string& display_name,
                         const std::string& events, const DetectArguments& a, const std::vector<std::string>& comments) {
   Warnings warnings;
-  detect::StreamDetectorSummary summary;
+  drivers::StreamDetectorSummary summary;
   run_library(warnings, [&] {
-    detect::StreamDetectorOptions options;
+    drivers::StreamDetectorOptions options;
     if (a.min_samples) options.detector.min_samples = *a.min_samples;
     if (a.release) options.detector.release = *a.release;
     if (a.hold) options.detector.hold = *a.hold;
@@ -387,7 +387,7 @@ py::tuple detect_stream(const std::string& profile_path, const std::string& inpu
     if (a.threshold) options.constant_thresholds = *a.threshold;
     options.profile_path = profile_path;
     options.output = events;
-    options.format = detect::EventFormat::csv;
+    options.format = drivers::EventFormat::csv;
     options.comments = comments;
     options.stall = 0;  // a file, never a live input
     options.open_input = [&](const std::string& path, stream::ReaderOptions o) {
@@ -401,7 +401,7 @@ py::tuple detect_stream(const std::string& profile_path, const std::string& inpu
     if (!options.IsValid(&why)) throw UsageError(why);
     if (!locator.IsValid(&why)) throw UsageError("link_radius: " + why);
     if (a.identify) options.annotator = contact::annotator_factory(locator, profile_path);
-    summary = detect::StreamDetector(options).run(input);
+    summary = drivers::StreamDetector(options).run(input);
   });
   py::dict s;
   s["rows"] = summary.rows;

@@ -24,7 +24,7 @@
 #include "momentum/contact/window.hpp"
 #include "momentum/detect/events.hpp"
 #include "momentum/detect/friction_band.hpp"
-#include "momentum/detect/stream_detector.hpp"
+#include "momentum/detect/annotator.hpp"
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/model/model.hpp"
 
@@ -35,7 +35,7 @@ namespace momentum::contact {
 // `slow`: the larger of that and the same of the slow state's band.
 Eigen::VectorXd noise_scale(const detect::Thresholds& thresholds, bool slow = false);
 
-// detect::StreamDetector's annotator (mo-detect): contact/ builds on detect/, which sees it
+// drivers::StreamDetector's annotator (mo-detect): contact/ builds on detect/, which sees it
 // through that interface only.
 class EventContact final : public detect::EventAnnotator {
  public:

@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "momentum/detect/annotator.hpp"
 #include "momentum/detect/detector.hpp"
 #include "momentum/detect/events.hpp"
 #include "momentum/detect/thresholds.hpp"
@@ -26,46 +27,14 @@
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/writer.hpp"
 
-namespace momentum::detect {
-
-// Contact identification and classification beside the detector: the stream driver's view of
-// contact::EventContact (lib/src/contact builds on detect, so detect only knows this interface).
-class EventAnnotator {
- public:
-  virtual ~EventAnnotator() = default;
-  // Every row, before the detector's step on it: t (s), q, the residual x and the velocities dq
-  // (n each; dq null when the stream has none).
-  virtual void add(double t, const double* q, const double* x, const double* dq) = 0;
-  // Fills what needs no fit in an event row the detector produced on the last row added: an
-  // onset row opens the event and gets its class when already decided at detection (a joint
-  // over its collision level); an end row gets everything, fitted over the whole event.
-  virtual void annotate(Event& event) = 0;
-  // For an onset row already annotated and written: the identification at detection (the
-  // identified link, contact point, force; the class when decided), which the driver writes
-  // as the event's `identified` row. The costly part (a fit over the candidate links, up to
-  // tens of milliseconds), so that the onset row and its hook do not wait for it.
-  virtual void identify(Event& event) = 0;
-  // Once per event, on the row where its class is decided: the class name ("collision",
-  // "contact", or "" when undecidable); nullopt on other rows.
-  virtual std::optional<std::string_view> decide() = 0;
-  // Whether events are classified at all (the profile holds a class rule).
-  virtual bool classifies() const = 0;
-};
-
-// Builds the annotator for a stream of `thresholds.joints.size()` joints from the profile's
-// chain (chain.nq equals that count), the profile, and the friction band the detector judges
-// with (friction_band.hpp; empty: none). Throws momentum::Error for a bad class rule in the
-// profile.
-using AnnotatorFactory = std::function<std::unique_ptr<EventAnnotator>(
-    const model::Model& chain, const model::Profile& profile, const Thresholds& thresholds,
-    const FrictionBand& friction_band)>;
+namespace momentum::drivers {
 
 enum class EventFormat { csv, jsonl };
 
 struct StreamDetectorOptions {
-  DetectorOptions detector;
+  detect::DetectorOptions detector;
   // The residual judged; nullopt: mu when the stream has mu1, else r.
-  std::optional<Signal> signal;
+  std::optional<detect::Signal> signal;
   // Constant thresholds, Nm: one for every joint or one per joint. Empty: the profile's.
   std::vector<double> constant_thresholds;
   // The robot profile ("": none): thresholds, chain for identification, identity in JSON Lines.
@@ -99,7 +68,7 @@ struct StreamDetectorOptions {
   bool measure_latency = false;
   // Identification and classification: built when the profile's chain fits the stream and the
   // stream has q<j>; null: none.
-  AnnotatorFactory annotator;
+  detect::AnnotatorFactory annotator;
   // Opens the input with the tool's policies (strict, rows counted); null: stream::Reader::open.
   std::function<std::unique_ptr<stream::Reader>(const std::string& path, stream::ReaderOptions options)> open_input;
   // Opens the --pass output like `in`; required with `pass`.
@@ -248,4 +217,4 @@ class StreamDetector {
   StreamDetectorOptions options_;
 };
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers

@@ -1,4 +1,4 @@
-#include "momentum/detect/calibrate_streams.hpp"
+#include "momentum/drivers/calibrate_streams.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -11,7 +11,10 @@
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/non_finite.hpp"
 
-namespace momentum::detect {
+namespace momentum::drivers {
+
+// This driver runs the detect stage: its names are this file's vocabulary.
+using namespace detect;
 
 bool CalibrateStreamsOptions::IsValid(std::string* why) const {
   auto fail = [why](const std::string& reason) {
@@ -198,4 +201,4 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
   return results;
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers

@@ -15,10 +15,11 @@
 #include <sstream>
 #include <thread>
 
-#include "momentum/detect/live.hpp"
+#include "momentum/drivers/live.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
+using namespace momentum::drivers;
 
 namespace {
 std::string read_file(const std::string& path) {

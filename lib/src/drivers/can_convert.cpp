@@ -1,4 +1,4 @@
-#include "momentum/can/convert.hpp"
+#include "momentum/drivers/can_convert.hpp"
 
 #include <cmath>
 #include <initializer_list>
@@ -12,7 +12,10 @@
 #include "momentum/core/error.hpp"
 #include "momentum/stream/writer.hpp"
 
-namespace momentum::can {
+namespace momentum::drivers {
+
+// This driver runs the can stage: its names are this file's vocabulary.
+using namespace can;
 
 // ---- FrameSource ----------------------------------------------------------------------------
 
@@ -320,4 +323,4 @@ void Converter::require_rows() const {
               " read but no complete cycle (is the cycle's SYNC frame in the capture?)");
 }
 
-}  // namespace momentum::can
+}  // namespace momentum::drivers

@@ -1,4 +1,4 @@
-#include "momentum/detect/plot_stream.hpp"
+#include "momentum/drivers/plot_stream.hpp"
 
 #include <cmath>
 
@@ -6,7 +6,10 @@
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 
-namespace momentum::detect {
+namespace momentum::drivers {
+
+// This driver runs the detect stage: its names are this file's vocabulary.
+using namespace detect;
 
 PlotColumns plot_columns(const stream::Reader& in, const std::vector<Signal>& signals) {
   PlotColumns out;
@@ -111,4 +114,4 @@ std::string stream_plot_script(stream::Reader& in, const PlotColumns& c,
   return gnuplot_script(data, events, truth, output, options);
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers

@@ -8,11 +8,12 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "momentum/can/convert.hpp"
+#include "momentum/drivers/can_convert.hpp"
 #include "momentum/core/error.hpp"
 
 namespace fs = std::filesystem;
 using namespace momentum::can;
+using namespace momentum::drivers;
 
 namespace {
 

@@ -12,10 +12,11 @@
 #include <string>
 #include <vector>
 
-#include "momentum/detect/stream_detector.hpp"
+#include "momentum/drivers/stream_detector.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
+using namespace momentum::drivers;
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "momentum/detect/live.hpp"
+#include "momentum/drivers/live.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -18,7 +18,10 @@
 
 extern char** environ;
 
-namespace momentum::detect {
+namespace momentum::drivers {
+
+// This driver runs the detect stage: its names are this file's vocabulary.
+using namespace detect;
 
 namespace {
 
@@ -233,4 +236,4 @@ std::string CommandRunner::report() const {
   return text;
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers

@@ -17,15 +17,15 @@
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/reader.hpp"
 
-namespace momentum::detect {
+namespace momentum::drivers {
 
 enum class ReportFormat { text, jsonl };
 
 struct CalibrateStreamsOptions {
-  CalibrationOptions calibration;
+  detect::CalibrationOptions calibration;
   // The signals calibrated, each with its own thresholds; empty: mu and r, those the first
   // stream has.
-  std::vector<Signal> signals;
+  std::vector<detect::Signal> signals;
   // With mu: judge the rows at rest on the raw r columns when the streams have them (else on
   // mu itself). Every stream must then have them or none.
   bool rest_on_r = true;
@@ -77,7 +77,7 @@ inline constexpr std::uint64_t kMinimumCalibrationRows = 100;
 // from the profile's, when some streams have r and others not (rest_on_r), with fewer than
 // kMinimumCalibrationRows good rows, when a check refuses the update (nothing is written then),
 // and what writing the profile throws. Throws momentum::Error for invalid options.
-std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>& inputs,
+std::vector<detect::CalibrationResult> calibrate_streams(const std::vector<std::string>& inputs,
                                                  const CalibrateStreamsOptions& options);
 
 // Writes `document`, an edited copy of `profile`'s: to standard output as indented JSON when
@@ -86,4 +86,4 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
 // it cannot be written.
 void write_updated_profile(const nlohmann::json& document, const model::Profile& profile, const std::string& output);
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers

@@ -1,4 +1,4 @@
-#include "momentum/detect/stream_detector.hpp"
+#include "momentum/drivers/stream_detector.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -16,11 +16,14 @@
 #include "momentum/detect/calibration.hpp"
 #include "momentum/detect/events_json.hpp"
 #include "momentum/detect/friction_band.hpp"
-#include "momentum/detect/live.hpp"
+#include "momentum/drivers/live.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
 
-namespace momentum::detect {
+namespace momentum::drivers {
+
+// This driver runs the detect stage: its names are this file's vocabulary.
+using namespace detect;
 namespace {
 
 Thresholds choose_thresholds(const StreamDetectorOptions& options, const model::Profile* profile, Signal signal,
@@ -611,4 +614,4 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
   }
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers

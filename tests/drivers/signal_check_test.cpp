@@ -18,12 +18,13 @@
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/observer/observe_stream.hpp"
+#include "momentum/drivers/observe_stream.hpp"
 #include "momentum/observer/signal_check.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/writer.hpp"
 
 namespace mo = momentum::observer;
+namespace md = momentum::drivers;
 namespace mm = momentum::model;
 namespace fs = std::filesystem;
 
@@ -84,18 +85,18 @@ Table reference() {
 }
 
 // The table through StreamObserver (first order, K1 = 50) with a `flagged` column.
-Table observe(const Table& in, bool check, mo::ObserveStreamSummary* summary = nullptr) {
+Table observe(const Table& in, bool check, md::ObserveStreamSummary* summary = nullptr) {
   const fs::path dir = fs::temp_directory_path() / ("signal_check_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   write_csv((dir / "in.csv").string(), in);
-  mo::ObserveStreamOptions options;
+  md::ObserveStreamOptions options;
   options.observer.signals.enabled = check;
   options.flag_column = true;
   {
     auto reader = momentum::stream::Reader::open((dir / "in.csv").string());
-    mo::StreamObserver observer(*reader, ur5(), options);
+    md::StreamObserver observer(*reader, ur5(), options);
     auto writer = momentum::stream::Writer::open((dir / "out.csv").string());
-    const mo::ObserveStreamSummary s = observer.run(*writer);
+    const md::ObserveStreamSummary s = observer.run(*writer);
     writer->close();
     if (summary) *summary = s;
   }
@@ -137,7 +138,7 @@ TEST(SignalCheck, GlitchesAreLeftOutAndBridged) {
   glitched.rows[pair + 1][dq_col(0)] -= 0.2;
   const std::vector<std::size_t> faults{stop, encoder, velocity, pair, pair + 1};
 
-  mo::ObserveStreamSummary summary;
+  md::ObserveStreamSummary summary;
   const Table checked = observe(glitched, true, &summary);
   const Table unchecked = observe(glitched, false);
   const Table reference_r = observe(clean, false);
@@ -173,7 +174,7 @@ TEST(SignalCheck, GlitchesAreLeftOutAndBridged) {
 TEST(SignalCheck, ImpactIsNotHidden) {
   Table impact = reference();
   for (std::size_t k = 3000; k < 3200; ++k) impact.rows[k][tau_col(1)] += 150;
-  mo::ObserveStreamSummary summary;
+  md::ObserveStreamSummary summary;
   const Table checked = observe(impact, true, &summary);
   const Table unchecked = observe(impact, false);
   EXPECT_EQ(summary.flagged_rows, 0u);
@@ -193,7 +194,7 @@ TEST(SignalCheck, ConsistentFastChangeIsConfirmed) {
   for (std::size_t k = 4999; k < table.rows.size(); ++k)
     table.rows[k][q_col(3)] += k == 4999 ? 0.001 : k == 5000 ? 0.003 : k == 5001 ? 0.005 : 0.006;
   for (std::size_t k : {5000, 5001, 5002}) table.rows[k][dq_col(3)] += 2.0;
-  mo::ObserveStreamSummary summary;
+  md::ObserveStreamSummary summary;
   const Table checked = observe(table, true, &summary);
   const Table unchecked = observe(table, false);
   EXPECT_EQ(summary.flagged_rows, 0u);
@@ -267,7 +268,7 @@ TEST(SignalCheck, FineSignalsAndADuplicateOfAHeldRow) {
   }
   table.rows[150][dq_col(0)] += 0.2;
   table.rows.insert(table.rows.begin() + 151, table.rows[150]);
-  mo::ObserveStreamSummary summary;
+  md::ObserveStreamSummary summary;
   const Table checked = observe(table, true, &summary);
   EXPECT_EQ(summary.flagged_rows, 1u);
   EXPECT_EQ(summary.duplicate_rows, 1u);
@@ -325,7 +326,7 @@ TEST(SignalCheck, VelocitySpikeUnderAnEncoderCountIsLeftOut) {
   mm::mass_matrix(ur5(), data, q, mass);
   glitched.rows[driven][dq_col(0)] += 0.05;
   glitched.rows[driven][tau_col(0)] += mass(0, 0) * 0.05 / 0.001;
-  mo::ObserveStreamSummary summary;
+  md::ObserveStreamSummary summary;
   const Table checked = observe(glitched, true, &summary);
   ASSERT_EQ(checked.rows.size(), clean.rows.size());
   EXPECT_EQ(flagged_rows(checked), spikes);
@@ -353,7 +354,7 @@ TEST(SignalCheck, GlitchAfterALostSampleIsLeftOut) {
     const double v = clean.rows[lost][dq_col(j)];
     glitched.rows[lost][dq_col(j)] = (v > 0 ? -1.0 : 1.0) * (std::fabs(v) + 0.09);
   }
-  mo::ObserveStreamSummary summary;
+  md::ObserveStreamSummary summary;
   const Table checked = observe(glitched, true, &summary);
   EXPECT_EQ(flagged_rows(checked), std::vector<std::size_t>{lost});
   EXPECT_EQ(summary.restarts, 0u);

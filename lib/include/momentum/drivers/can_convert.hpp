@@ -19,8 +19,11 @@
 #include "momentum/stream/format.hpp"
 
 namespace momentum::can {
-
 class SocketCanReader;
+}  // namespace momentum::can
+
+namespace momentum::drivers {
+
 
 // Counters of a frame source, summed over every input read so far.
 struct SourceStats {
@@ -35,7 +38,7 @@ struct SourceStats {
 // SocketCAN interface.
 class FrameSource {
  public:
-  static std::unique_ptr<FrameSource> files(std::vector<std::string> paths, CandumpOptions options);
+  static std::unique_ptr<FrameSource> files(std::vector<std::string> paths, can::CandumpOptions options);
   // Throws momentum::Error when the interface cannot be opened.
   static std::unique_ptr<FrameSource> interface(const std::string& name);
   ~FrameSource();
@@ -43,7 +46,7 @@ class FrameSource {
   FrameSource& operator=(const FrameSource&) = delete;
 
   // The next frame; false at the end of the last input, or when keep_going said stop.
-  bool next(Frame& frame);
+  bool next(can::Frame& frame);
   // Asked before each read, after each frame of text and whenever a blocking read was
   // interrupted by a signal: false ends the source as if the input had ended (the caller's
   // SIGINT and SIGTERM; it may also print statistics on SIGUSR1).
@@ -62,9 +65,9 @@ class FrameSource {
   bool open_next_text();
   std::vector<std::string> paths_;
   std::size_t next_path_ = 0;
-  CandumpOptions text_options_;
-  std::unique_ptr<CandumpReader> text_;
-  std::unique_ptr<SocketCanReader> socket_;
+  can::CandumpOptions text_options_;
+  std::unique_ptr<can::CandumpReader> text_;
+  std::unique_ptr<can::SocketCanReader> socket_;
   std::string interface_;
   SourceStats done_;  // the inputs already closed
   std::function<bool()> keep_going_;
@@ -78,7 +81,7 @@ struct ConvertOptions {
   std::string dbc;                  // the DBC file that decodes the frames (required)
   std::vector<std::string> inputs;  // candump text files; none (and no interface): stdin
   std::string interface;            // read live from this SocketCAN interface instead
-  CandumpOptions text;              // strict, timestamp mode, --bus
+  can::CandumpOptions text;              // strict, timestamp mode, --bus
   // --long: one row per decoded signal (t,can_id,message,signal,raw,value), CSV only.
   bool long_format = false;
   // Cycle rows: which column each signal feeds (a --map file; empty: signals named q1, dq1,
@@ -102,8 +105,8 @@ struct ConvertOptions {
 struct ConvertSummary {
   enum class Mode { none, cycles, signals } mode = Mode::none;
   SourceStats source;
-  CycleStats cycles;        // mode cycles
-  SignalRowCounts signals;  // mode signals
+  can::CycleStats cycles;        // mode cycles
+  can::SignalRowCounts signals;  // mode signals
   std::uint64_t rows = 0;   // rows written (cycles)
 };
 
@@ -138,4 +141,4 @@ class Converter {
   std::unique_ptr<State> state_;
 };
 
-}  // namespace momentum::can
+}  // namespace momentum::drivers

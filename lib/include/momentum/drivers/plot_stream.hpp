@@ -14,12 +14,12 @@
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/stream/reader.hpp"
 
-namespace momentum::detect {
+namespace momentum::drivers {
 
 // The columns of a stream that a figure draws.
 struct PlotColumns {
   std::size_t time = 0;                          // column of t
-  std::vector<Signal> signals;                   // in panel order
+  std::vector<detect::Signal> signals;                   // in panel order
   std::size_t joints = 0;                        // n, >= 1
   std::vector<std::vector<std::size_t>> values;  // per signal, its columns <signal>1..n
   std::vector<std::size_t> velocity;             // dq1..n, empty when the stream lacks them
@@ -31,16 +31,16 @@ struct PlotColumns {
 // time draw mu when the stream has it (what mo-detect uses); else the views draw the first
 // one. Throws momentum::Error naming the stream when t is missing, when it has neither r1 nor
 // mu1 (and `signals` is empty), or when a signal's columns are missing.
-PlotColumns plot_columns(const stream::Reader& in, const std::vector<Signal>& signals);
+PlotColumns plot_columns(const stream::Reader& in, const std::vector<detect::Signal>& signals);
 
 // The thresholds of each of `signals` from the profile at `profile_path` (empty: none), nullopt
 // for a signal the profile has none for (warned about through momentum::warn: no band is
 // drawn). `friction_band` (when non-null) gets the band mu's thresholds were calibrated with
 // (friction_band.hpp), for PlotOptions::friction_band. Throws what model::load_profile,
 // thresholds_from_profile and friction_band_from_profile throw.
-std::vector<std::optional<Thresholds>> plot_thresholds(const std::string& profile_path,
-                                                       const std::vector<Signal>& signals,
-                                                       FrictionBand* friction_band = nullptr);
+std::vector<std::optional<detect::Thresholds>> plot_thresholds(const std::string& profile_path,
+                                                       const std::vector<detect::Signal>& signals,
+                                                       detect::FrictionBand* friction_band = nullptr);
 
 // Reads the rows of `in` into the figure of `view` (not force) and returns its gnuplot script,
 // which draws `output` with `events` and the `truth` contacts marked. Rows whose time goes
@@ -49,8 +49,8 @@ std::vector<std::optional<Thresholds>> plot_thresholds(const std::string& profil
 // does not draw over earlier rows. Throws momentum::Error when no row is left to plot (in
 // options' time window), and what the reader and the script throw.
 std::string stream_plot_script(stream::Reader& in, const PlotColumns& columns,
-                               const std::vector<std::optional<Thresholds>>& thresholds, PlotView view,
-                               const std::vector<Event>& events, const std::vector<TruthContact>& truth,
-                               const std::string& output, const PlotOptions& options);
+                               const std::vector<std::optional<detect::Thresholds>>& thresholds, detect::PlotView view,
+                               const std::vector<detect::Event>& events, const std::vector<detect::TruthContact>& truth,
+                               const std::string& output, const detect::PlotOptions& options);
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers

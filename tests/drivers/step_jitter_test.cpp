@@ -4,19 +4,20 @@
 #include <cmath>
 #include <random>
 
-#include "momentum/observer/observe_stream.hpp"
+#include "momentum/drivers/observe_stream.hpp"
 
 namespace mo = momentum::observer;
+namespace md = momentum::drivers;
 
 namespace {
 
 // Steps of a clock of period T whose sampling instants jitter by sigma * T (normal), every
 // `lost`-th sample dropped (0: none). Returns the jitter statistics.
-mo::StepJitter clock(double sigma, int steps, int lost, unsigned seed) {
+md::StepJitter clock(double sigma, int steps, int lost, unsigned seed) {
   std::mt19937_64 random(seed);
   std::normal_distribution<double> normal(0.0, sigma);
   const double period = 0.008;
-  mo::StepJitter jitter;
+  md::StepJitter jitter;
   double previous = normal(random) * period;
   for (int k = 1; k <= steps; ++k) {
     if (lost && k % lost == 0) continue;
@@ -35,7 +36,7 @@ mo::StepJitter clock(double sigma, int steps, int lost, unsigned seed) {
 // and which all warned before), no gap of 450,000 steps (an hour at 125 Hz) is unusual.
 TEST(StepJitter, OrdinaryJitterIsNoGap) {
   for (const double sigma : {0.1, 0.15}) {
-    const mo::StepJitter j = clock(sigma, 450000, 0, 7);
+    const md::StepJitter j = clock(sigma, 450000, 0, 7);
     EXPECT_NEAR(j.sigma(), std::sqrt(2.0) * sigma, 0.04 * sigma);
     EXPECT_GT(j.gaps(), 50u);
     EXPECT_EQ(j.unusual_gaps(), 0u) << "sigma " << sigma;
@@ -47,12 +48,12 @@ TEST(StepJitter, OrdinaryJitterIsNoGap) {
 // them at 10% jitter (the line at k = 5.8 step deviations is 0.82: of steps 2 +- 0.14 periods,
 // 1 - P(Z < -1.27) = 90% beyond), and all of them on a clean clock.
 TEST(StepJitter, LostSamplesAre) {
-  const mo::StepJitter jittered = clock(0.1, 450000, 100, 7);
+  const md::StepJitter jittered = clock(0.1, 450000, 100, 7);
   EXPECT_NEAR(jittered.gap_line(), std::sqrt(2 * std::log(50.0 * jittered.steps())) * jittered.sigma(), 1e-12);
   EXPECT_GT(jittered.unusual_gaps(), 0.85 * 4500);
   EXPECT_LT(jittered.unusual_gaps(), 0.95 * 4500);
   EXPECT_LE(jittered.unusual_gaps(), jittered.gaps());
-  const mo::StepJitter clean = clock(0.0, 45000, 100, 7);
+  const md::StepJitter clean = clock(0.0, 45000, 100, 7);
   EXPECT_LT(clean.sigma(), 1e-9);  // the rounding of k T
   EXPECT_EQ(clean.gap_line(), 0.5);
   EXPECT_EQ(clean.unusual_gaps(), 449u);  // the last sample lost has no step after it

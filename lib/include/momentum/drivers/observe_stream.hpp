@@ -20,10 +20,10 @@
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/writer.hpp"
 
-namespace momentum::observer {
+namespace momentum::drivers {
 
 struct ObserveStreamOptions {
-  ObserverOptions observer;
+  observer::ObserverOptions observer;
   // Friction model compensated inside the observer (nq joints), or nullptr for r only.
   const friction::FrictionModel* friction = nullptr;
   // Append a column `restart`: 1 on rows where r does not continue from the previous row
@@ -144,7 +144,7 @@ class StreamObserver {
   stream::Reader& in_;
   const model::Model& model_;
   ObserveStreamOptions options_;
-  MomentumObserver observer_;
+  observer::MomentumObserver observer_;
   std::vector<std::string> columns_;
   std::size_t t_index_ = 0;
   std::vector<std::size_t> q_index_, dq_index_, torque_index_;
@@ -160,11 +160,11 @@ ObserveStreamSummary observe_stream(stream::Reader& in, stream::Writer& out,
 
 // The profile's "observer" section (defaults when absent). Throws momentum::Error located at
 // the profile's file for a bad section; unknown keys are reported through momentum::warn.
-ObserverOptions observer_options_from_profile(const model::Profile& profile);
+observer::ObserverOptions observer_options_from_profile(const model::Profile& profile);
 
 // The profile's "friction" section, or nullopt when absent. Throws momentum::Error located at
 // the profile's file for a bad section or when it does not have `joints` joints; unknown keys
 // are reported through momentum::warn.
 std::optional<friction::FrictionModel> friction_from_profile(const model::Profile& profile, int joints);
 
-}  // namespace momentum::observer
+}  // namespace momentum::drivers

@@ -1,4 +1,4 @@
-#include "momentum/observer/observe_stream.hpp"
+#include "momentum/drivers/observe_stream.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -14,7 +14,10 @@
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 
-namespace momentum::observer {
+namespace momentum::drivers {
+
+// This driver runs the observer stage: its names are this file's vocabulary.
+using namespace observer;
 namespace {
 
 using core::exact;
@@ -550,4 +553,4 @@ std::optional<friction::FrictionModel> friction_from_profile(const model::Profil
   return model;
 }
 
-}  // namespace momentum::observer
+}  // namespace momentum::drivers

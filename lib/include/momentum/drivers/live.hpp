@@ -12,7 +12,7 @@
 
 #include "momentum/detect/events.hpp"
 
-namespace momentum::detect {
+namespace momentum::drivers {
 
 // Thrown out of a read hook when SIGINT or SIGTERM arrived; the tool closes its open event
 // and exits normally.
@@ -60,7 +60,7 @@ class CommandRunner {
 
   // Starts (or queues) the command for `event` and returns at once. A failure to start is
   // reported through momentum::warn (detection must go on), counted in failures().
-  void launch(const Event& event);
+  void launch(const detect::Event& event);
   // The same with the environment given: `variables` as NAME=VALUE (MOMENTUM_* ones), and
   // `label` naming it in messages ("event 3").
   void launch(std::vector<std::string> variables, std::string label);
@@ -96,6 +96,6 @@ class CommandRunner {
 };
 
 // The MOMENTUM_* variables of an event for a hook (mo-detect(1), ENVIRONMENT).
-std::vector<std::string> event_variables(const Event& event);
+std::vector<std::string> event_variables(const detect::Event& event);
 
-}  // namespace momentum::detect
+}  // namespace momentum::drivers
