@@ -5,10 +5,11 @@
 #include <random>
 #include <vector>
 
-#include "momentum/detect/calibration.hpp"
+#include "momentum/calibrate/calibration.hpp"
 #include "momentum/detect/detector.hpp"
 
 using namespace momentum::detect;
+using namespace momentum::calibrate;
 
 namespace {
 

@@ -46,7 +46,7 @@ if [[ ${MOMENTUM_FULL_SANITIZE:-1} == 1 ]]; then
   # of the numerical stages (friction, fit, contact, sim, eval, dynfit: 470 of the 900 CPU
   # seconds the sanitized unit tests take to compile) are left to the normal build, and their
   # code runs sanitized through the tools in the golden cases and the hostile test.
-  sanitize_stages="core;stream;cli;can;model;observer;detect;drivers"
+  sanitize_stages="core;stream;cli;can;model;observer;detect;calibrate;drivers"
   sanitize_targets=()
   sanitize_tests=(-LE 'slow|heavy')
   # The unit tests that took over half a second in the normal run above (its cost file) are

@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
   double margin = 0, max_rise = 0;
   bool envelope = false, no_rest = false, reject_contact = false, dry_run = false;
   drivers::CalibrateStreamsOptions streams;
-  detect::CalibrationOptions& options = streams.calibration;
+  calibrate::CalibrationOptions& options = streams.calibration;
   auto& app = tool.app();
   app.add_option("-o,--output", output, "write the updated profile to FILE instead of replacing -p")->type_name("FILE");
   app.add_option("--signal", signals_option, "mu, r or mu,r (default: those the streams have)")->type_name("LIST");
@@ -98,7 +98,7 @@ int main(int argc, char** argv) {
       return cli::kSuccess;
     }
     if (*margin_option) options.margin_nm = margin;
-    options.rule = detect::parse_threshold_rule(rule);
+    options.rule = calibrate::parse_threshold_rule(rule);
     if (!drift_list.empty()) options.rest_drift_candidates = cli::parse_number_list(drift_list, "--rest-drift");
     options.envelope = envelope;
     options.rest_state = !no_rest;

@@ -1,5 +1,4 @@
 // mo-plot: residuals against thresholds, events and true contacts, to PNG, SVG or PDF via gnuplot.
-#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -7,7 +6,7 @@
 #include "momentum/cli/tool.hpp"
 #include "momentum/cli/whole_number.hpp"
 #include "momentum/drivers/plot_stream.hpp"
-#include "momentum/eval/score.hpp"
+#include "momentum/eval/truth.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum;
@@ -19,7 +18,7 @@ int main(int argc, char** argv) {
   tool.add_profile(/*required=*/false);
   std::string output, format, events_path, truth_path, signals_option;
   bool script_only = false;
-  detect::PlotOptions options;
+  plot::PlotOptions options;
   auto& app = tool.app();
   app.add_option("-o,--output", output, "image file to write (.png, .svg or .pdf)")->type_name("FILE")->required();
   app.add_option("--format", format, "png, svg or pdf (default: from the file name, else png)")
@@ -33,13 +32,13 @@ int main(int argc, char** argv) {
   app.add_option("--title", options.title, "title above the panels")->type_name("TEXT");
   app.add_option("--width", options.width, "image width in pixels, 200 to 20000 (1400)")
       ->type_name("PX")
-      ->check(cli::whole_number_in(detect::kMinPlotWidth, detect::kMaxPlotWidth));
+      ->check(cli::whole_number_in(plot::kMinPlotWidth, plot::kMaxPlotWidth));
   app.add_option("--panel-height", options.panel_height, "height of one joint's row in pixels, 80 to 5000 (220)")
       ->type_name("PX")
-      ->check(cli::whole_number_in(detect::kMinPanelHeight, detect::kMaxPanelHeight));
+      ->check(cli::whole_number_in(plot::kMinPanelHeight, plot::kMaxPanelHeight));
   app.add_option("--max-points", options.max_points, "time buckets per panel, min and max of each, 10 to 100000 (2000)")
       ->type_name("N")
-      ->check(cli::whole_number_in(detect::kMinPlotPoints, detect::kMaxPlotPoints));
+      ->check(cli::whole_number_in(plot::kMinPlotPoints, plot::kMaxPlotPoints));
   std::string view_name = "time";
   app.add_option("--view", view_name, "time (default), events, mu-dq, histogram or force (no stream)")
       ->check(CLI::IsMember({"time", "events", "mu-dq", "histogram", "force"}));
@@ -52,39 +51,23 @@ int main(int argc, char** argv) {
       if (std::fwrite(script.data(), 1, script.size(), stdout) != script.size()) throw Error("cannot write the script");
       return cli::kSuccess;
     }
-    detect::run_gnuplot(script);
+    plot::run_gnuplot(script);
     return cli::kSuccess;
   };
   return tool.run(argc, argv, [&] {
     if (tool.inputs().size() > 1) throw cli::UsageError("one input stream at a time");
     try {
-      detect::check_gnuplot_text(output, "the output name");
-      options.format = detect::plot_format(output, format);
+      plot::check_gnuplot_text(output, "the output name");
+      options.format = plot::plot_format(output, format);
     } catch (const Error& e) {
       throw cli::UsageError(e.what());
     }
     std::string why;
     if (!options.IsValid(&why)) throw cli::UsageError(why);
     if (view_name == "force") {
-      // Events (and truth) only: with a truth, mo-eval's matching, then estimated against true
-      // peak force; without (a real robot), each event's estimate against its time.
       if (events_path.empty() || !tool.inputs().empty())
         throw cli::UsageError("--view force takes --events (and --truth), and no stream");
-      const auto detections = eval::read_detections(events_path, tool.strict());
-      if (truth_path.empty()) {
-        std::vector<detect::ForceEstimate> estimates;
-        for (const auto& d : detections)
-          if (std::isfinite(d.peak_force)) estimates.push_back({d.t_detect, d.peak_force, d.final_link});
-        if (estimates.empty())
-          throw Error(events_path + ": no event with an estimated force (f_peak: mo-detect's contact columns)");
-        return emit(detect::force_estimate_script(estimates, output, options));
-      }
-      std::vector<detect::ForcePoint> points;
-      for (const auto& o : eval::score(eval::read_truth(truth_path), detections, {}).outcomes)
-        if (o.detection >= 0 && std::isfinite(o.force_error))
-          points.push_back({o.contact.peak_force, detections[static_cast<std::size_t>(o.detection)].peak_force,
-                            o.contact.link});
-      return emit(detect::force_view_script(points, output, options));
+      return emit(drivers::force_plot_script(events_path, truth_path, tool.strict(), output, options));
     }
 
     std::vector<detect::Signal> signals;
@@ -98,9 +81,9 @@ int main(int argc, char** argv) {
     const auto thresholds = drivers::plot_thresholds(tool.profile(), columns.signals, &options.friction_band);
     std::vector<detect::Event> events;
     if (!events_path.empty()) events = detect::read_events(events_path);
-    std::vector<detect::TruthContact> truth;
-    if (!truth_path.empty()) truth = detect::read_truth(truth_path);
-    const detect::PlotView view = detect::parse_plot_view(view_name);
+    std::vector<eval::TruthContact> truth;
+    if (!truth_path.empty()) truth = eval::read_truth(truth_path).contacts;
+    const plot::PlotView view = plot::parse_plot_view(view_name);
     return emit(drivers::stream_plot_script(*in, columns, thresholds, view, events, truth, output, options));
   });
 }

@@ -294,7 +294,7 @@ py::tuple calibrate_streams(const std::string& profile_path, const std::vector<s
   std::uint64_t rows = 0;
   run_library(warnings, [&] {
     drivers::CalibrateStreamsOptions streams;
-    detect::CalibrationOptions& options = streams.calibration;
+    calibrate::CalibrationOptions& options = streams.calibration;
     if (a.false_alarm_rate) options.false_alarms_per_hour = *a.false_alarm_rate;
     if (a.peak_window) options.peak_window = *a.peak_window;
     if (a.margin && a.margin_percent) throw UsageError("give either margin or margin_percent, not both");
@@ -312,7 +312,7 @@ py::tuple calibrate_streams(const std::string& profile_path, const std::vector<s
     if (a.rule != "rate" && a.rule != "max") throw UsageError("rule: '" + a.rule + "' is not rate or max");
     if (a.rest_signal != "r" && a.rest_signal != "mu") throw UsageError("rest_signal: '" + a.rest_signal + "' is not r or mu");
     if (a.format != "text" && a.format != "jsonl") throw UsageError("format: '" + a.format + "' is not text or jsonl");
-    options.rule = detect::parse_threshold_rule(a.rule);
+    options.rule = calibrate::parse_threshold_rule(a.rule);
     if (a.rest_drift) options.rest_drift_candidates = *a.rest_drift;
     options.envelope = a.envelope;
     options.rest_state = !a.no_rest;

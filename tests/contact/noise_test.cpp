@@ -6,7 +6,7 @@
 #include <random>
 
 #include "momentum/contact/event_contact.hpp"
-#include "momentum/detect/calibration.hpp"
+#include "momentum/calibrate/calibration.hpp"
 
 namespace {
 
@@ -15,10 +15,10 @@ namespace {
 // state only: no velocities). The noise scales come back within 3%.
 TEST(Noise, ScalesRecoveredFromSimulatedCollisionFreeData) {
   const double sigma[3] = {0.5, 2.0, 8.0};
-  momentum::detect::CalibrationOptions options;
+  momentum::calibrate::CalibrationOptions options;
   options.rest_state = false;
   options.margin_nm = 0;
-  momentum::detect::Calibrator calibrator(momentum::detect::Signal::mu, 3, options);
+  momentum::calibrate::Calibrator calibrator(momentum::detect::Signal::mu, 3, options);
   calibrator.begin_stream("free", false);
   std::mt19937_64 random(29);
   std::normal_distribution<double> noise(0.0, 1.0);

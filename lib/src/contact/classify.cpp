@@ -94,18 +94,14 @@ PulseShape pulse_shape(std::span<const ResidualSample> samples, double t_onset, 
 }
 
 bool ClassRule::IsValid(std::string* why) const {
-  auto fail = [why](const std::string& text) {
-    if (why) *why = text;
-    return false;
-  };
-  if (!(width > 0) || !std::isfinite(width)) return fail("width must be a positive number of seconds");
-  if (!(rise_exponent >= 0) || !std::isfinite(rise_exponent)) return fail("rise_exponent must be 0 or more");
+  if (!(width > 0) || !std::isfinite(width)) return invalid(why, "width must be a positive number of seconds");
+  if (!(rise_exponent >= 0) || !std::isfinite(rise_exponent)) return invalid(why, "rise_exponent must be 0 or more");
   if (rise_exponent > 0 && (!(rise_reference > 0) || !std::isfinite(rise_reference)))
-    return fail("rise_reference must be a positive number of seconds");
+    return invalid(why, "rise_reference must be a positive number of seconds");
   for (std::size_t j = 0; j < collision_level.size(); ++j)
-    if (!(collision_level[j] > 0)) return fail("collision level of joint " + std::to_string(j + 1) + " must be positive");
-  if (!(slope >= 0) || !std::isfinite(slope)) return fail("slope must be 0 or more");
-  if (!(level_probability > 0 && level_probability <= 1)) return fail("level_probability must be in (0, 1]");
+    if (!(collision_level[j] > 0)) return invalid(why, "collision level of joint " + std::to_string(j + 1) + " must be positive");
+  if (!(slope >= 0) || !std::isfinite(slope)) return invalid(why, "slope must be 0 or more");
+  if (!(level_probability > 0 && level_probability <= 1)) return invalid(why, "level_probability must be in (0, 1]");
   return true;
 }
 

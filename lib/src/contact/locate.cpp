@@ -190,18 +190,14 @@ std::vector<Eigen::Vector3d> surface_points(const std::vector<model::CollisionSh
 }
 
 bool LocatorOptions::IsValid(std::string* why) const {
-  auto fail = [why](const char* text) {
-    if (why) *why = text;
-    return false;
-  };
-  if (points_per_link < 2) return fail("points per link must be at least 2");
-  if (!(link_radius >= 0) || !std::isfinite(link_radius)) return fail("the link radius must be >= 0 m");
-  if (max_fit_samples < 1) return fail("the fit needs at least 1 sample");
+  if (points_per_link < 2) return invalid(why, "points per link must be at least 2");
+  if (!(link_radius >= 0) || !std::isfinite(link_radius)) return invalid(why, "the link radius must be >= 0 m");
+  if (max_fit_samples < 1) return invalid(why, "the fit needs at least 1 sample");
   if (!(penalty_per_unknown > 0) || !std::isfinite(penalty_per_unknown))
-    return fail("the penalty per unknown must be positive");
-  if (!(proximal_alpha > 0 && proximal_alpha < 0.5)) return fail("the proximal level must be in (0, 0.5)");
-  if (!(link_confidence > 0 && link_confidence <= 1)) return fail("the link set's confidence must be in (0, 1]");
-  if (!(link_temperature > 0) || !std::isfinite(link_temperature)) return fail("the link temperature must be positive");
+    return invalid(why, "the penalty per unknown must be positive");
+  if (!(proximal_alpha > 0 && proximal_alpha < 0.5)) return invalid(why, "the proximal level must be in (0, 0.5)");
+  if (!(link_confidence > 0 && link_confidence <= 1)) return invalid(why, "the link set's confidence must be in (0, 1]");
+  if (!(link_temperature > 0) || !std::isfinite(link_temperature)) return invalid(why, "the link temperature must be positive");
   return true;
 }
 

@@ -13,17 +13,13 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }
 
 bool DetectorOptions::IsValid(std::string* why) const {
-  auto bad = [&](const std::string& text) {
-    if (why) *why = text;
-    return false;
-  };
-  if (min_samples < 1) return bad("min-samples must be >= 1");
-  if (!(release > 0 && release <= 1)) return bad("release must be in (0, 1]");
-  if (!(hold >= 0 && std::isfinite(hold))) return bad("hold must be >= 0 s");
-  if (onset_band && !(*onset_band > 0 && *onset_band <= 1)) return bad("onset band must be in (0, 1]");
-  if (!(skip >= 0 && std::isfinite(skip))) return bad("skip must be >= 0 s");
-  if (!(join >= 0 && std::isfinite(join))) return bad("join must be >= 0 s");
-  if (!(aftermath >= 0 && std::isfinite(aftermath))) return bad("aftermath must be >= 0 s");
+  if (min_samples < 1) return invalid(why, "min-samples must be >= 1");
+  if (!(release > 0 && release <= 1)) return invalid(why, "release must be in (0, 1]");
+  if (!(hold >= 0 && std::isfinite(hold))) return invalid(why, "hold must be >= 0 s");
+  if (onset_band && !(*onset_band > 0 && *onset_band <= 1)) return invalid(why, "onset band must be in (0, 1]");
+  if (!(skip >= 0 && std::isfinite(skip))) return invalid(why, "skip must be >= 0 s");
+  if (!(join >= 0 && std::isfinite(join))) return invalid(why, "join must be >= 0 s");
+  if (!(aftermath >= 0 && std::isfinite(aftermath))) return invalid(why, "aftermath must be >= 0 s");
   return true;
 }
 

@@ -29,31 +29,16 @@ std::vector<Signal> parse_signal_list(std::string_view comma_separated) {
 }
 
 bool RestRule::IsValid(std::string* why) const {
-  if (!positive(velocity)) {
-    if (why) *why = "rest velocity must be > 0, not " + core::significant(velocity, 9);
-    return false;
-  }
-  if (!(std::isfinite(time) && time >= 0)) {
-    if (why) *why = "rest time must be >= 0, not " + core::significant(time, 9);
-    return false;
-  }
-  if (!(std::isfinite(hangover) && hangover >= 0)) {
-    if (why) *why = "hangover must be >= 0, not " + core::significant(hangover, 9);
-    return false;
-  }
+  if (!positive(velocity)) return invalid(why, "rest velocity must be > 0, not " + core::significant(velocity, 9));
+  if (!(std::isfinite(time) && time >= 0)) return invalid(why, "rest time must be >= 0, not " + core::significant(time, 9));
+  if (!(std::isfinite(hangover) && hangover >= 0)) return invalid(why, "hangover must be >= 0, not " + core::significant(hangover, 9));
   return true;
 }
 
 bool Thresholds::IsValid(std::string* why) const {
   if (!rest_rule.IsValid(why)) return false;
-  if (!(friction_band >= 0 && std::isfinite(friction_band))) {
-    if (why) *why = "friction band must be >= 0 standard deviations, not " + core::significant(friction_band, 9);
-    return false;
-  }
-  if (joints.empty()) {
-    if (why) *why = "no joints";
-    return false;
-  }
+  if (!(friction_band >= 0 && std::isfinite(friction_band))) return invalid(why, "friction band must be >= 0 standard deviations, not " + core::significant(friction_band, 9));
+  if (joints.empty()) return invalid(why, "no joints");
   for (std::size_t j = 0; j < joints.size(); ++j) {
     const auto& J = joints[j];
     const std::string name = "joint " + std::to_string(j + 1);

@@ -1,4 +1,5 @@
 #include "momentum/drivers/calibrate_streams.hpp"
+#include "momentum/calibrate/calibration_json.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -15,35 +16,23 @@ namespace momentum::drivers {
 
 // This driver runs the detect stage: its names are this file's vocabulary.
 using namespace detect;
+using namespace calibrate;
 
 bool CalibrateStreamsOptions::IsValid(std::string* why) const {
-  auto fail = [why](const std::string& reason) {
-    if (why) *why = reason;
-    return false;
-  };
-  if (max_rise != 0 && !(max_rise >= 1 && std::isfinite(max_rise))) return fail("--max-rise must be >= 1");
+  if (max_rise != 0 && !(max_rise >= 1 && std::isfinite(max_rise))) return invalid(why, "--max-rise must be >= 1");
   if (!calibration.IsValid(why)) return false;
   if (!(friction_band_sigmas >= 0 && std::isfinite(friction_band_sigmas)))
-    return fail("--friction-band must be >= 0 standard deviations");
-  if (!output.empty() && profile_path.empty()) return fail("-o needs a profile (-p) to update");
-  if (!(stretch_gap > 0)) return fail("--stretch-gap must be > 0 s");
+    return invalid(why, "--friction-band must be >= 0 standard deviations");
+  if (!output.empty() && profile_path.empty()) return invalid(why, "-o needs a profile (-p) to update");
+  if (!(stretch_gap > 0)) return invalid(why, "--stretch-gap must be > 0 s");
   return true;
 }
 
-void write_updated_profile(const nlohmann::json& document, const model::Profile& profile, const std::string& output) {
-  const std::string destination = output.empty() ? profile.path.string() : output;
-  if (destination == "-") {
-    core::write_document("-", document.dump(2) + "\n");
-    return;
-  }
-  model::save_profile_as(document, profile, destination);
-}
-
-std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>& inputs,
+std::vector<calibrate::CalibrationResult> calibrate_streams(const std::vector<std::string>& inputs,
                                                  const CalibrateStreamsOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw Error(why);
-  CalibrationOptions calibration = options.calibration;
+  calibrate::CalibrationOptions calibration = options.calibration;
   std::optional<model::Profile> profile;
   if (!options.profile_path.empty()) profile = model::load_profile(options.profile_path);
   if (profile && calibration.friction_band.empty())
@@ -51,7 +40,7 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
         friction_band_from_profile(profile->document, options.friction_band_sigmas, options.profile_path);
 
   std::vector<Signal> signals = options.signals;
-  std::vector<Calibrator> calibrators;
+  std::vector<calibrate::Calibrator> calibrators;
   std::size_t joints = 0;
   bool raw_at_rest = false;
   nlohmann::json logs = nlohmann::json::array();
@@ -93,7 +82,7 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
     while (const double* row = in->next()) {
       if (in->time_mark() == stream::TimeMark::clock_step) {
         // The time line starts again: calibrate what follows as a stream of its own.
-        warn(in->where() + ": the clock stepped back: the rows from here count as a new log");
+        in->warn_clock_step("the rows from here count as a new log");
         for (auto& c : calibrators) c.begin_stream(in->where(), !idq.empty());
       } else if (in->time_mark() == stream::TimeMark::gap && row[it] - t_previous > options.stretch_gap) {
         // Recorded apart: a stretch of its own for the out-of-sample check, and the gap is no
@@ -119,7 +108,7 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
     if (non_finite.count() > 0) warn(in->name() + ": " + non_finite.summary() + " for some of the joints calibrated");
   }
 
-  std::vector<CalibrationResult> results;
+  std::vector<calibrate::CalibrationResult> results;
   for (const auto& c : calibrators) results.push_back(c.result());
   if (results.front().rows < kMinimumCalibrationRows)
     throw Error(std::to_string(results.front().rows) + " good row" + (results.front().rows == 1 ? "" : "s") +
@@ -134,7 +123,7 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
     if (profile && (options.max_rise > 0 || options.format == ReportFormat::text))
       old = thresholds_from_profile(profile->document, r.thresholds.signal, options.profile_path);
     if (old && options.max_rise > 0)
-      for (auto& rise : threshold_rises(*old, r.thresholds, options.max_rise)) rises.push_back(rise);
+      for (auto& rise : calibrate::threshold_rises(*old, r.thresholds, options.max_rise)) rises.push_back(rise);
     if (options.format == ReportFormat::jsonl) {
       const std::string lines = calibration_json_lines(r, identity);
       if (options.report)
@@ -142,8 +131,8 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
       else
         std::fwrite(lines.data(), 1, lines.size(), stdout);
     } else {
-      std::string report = format_calibration_report(r);
-      if (profile) report += format_threshold_changes(old ? &*old : nullptr, r.thresholds);
+      std::string report = calibrate::format_calibration_report(r);
+      if (profile) report += calibrate::format_threshold_changes(old ? &*old : nullptr, r.thresholds);
       // With -o - the profile goes to standard output, so the report goes to standard error.
       if (options.report)
         options.report(report);
@@ -197,7 +186,7 @@ std::vector<CalibrationResult> calibrate_streams(const std::vector<std::string>&
   details["false_alarms_vouched_per_hour"] = vouched;
   details["out_of_sample"] = checked;
   model::append_provenance(document, "mo-calibrate", details);
-  write_updated_profile(document, *profile, options.output);
+  model::write_updated_profile(document, *profile, options.output);
   return results;
 }
 

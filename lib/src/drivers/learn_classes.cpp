@@ -11,12 +11,8 @@
 namespace momentum::drivers {
 
 bool LearnClassesOptions::IsValid(std::string* why) const {
-  auto fail = [why](const std::string& reason) {
-    if (why) *why = reason;
-    return false;
-  };
-  if (events_path.empty() || truth_path.empty()) return fail("the events and their truth are needed");
-  if (profile_path.empty()) return fail("--classes needs a profile (-p) to update");
+  if (events_path.empty() || truth_path.empty()) return invalid(why, "the events and their truth are needed");
+  if (profile_path.empty()) return invalid(why, "--classes needs a profile (-p) to update");
   return true;
 }
 
@@ -55,7 +51,7 @@ LearnClassesResult learn_classes(const LearnClassesOptions& options) {
                                                   {"events", temperature.events}};
   model::append_provenance(document, "mo-calibrate",
                            {{"classes", events}, {"truth", options.truth_path}, {"examples", examples.size()}});
-  write_updated_profile(document, profile, options.output);
+  model::write_updated_profile(document, profile, options.output);
   return result;
 }
 

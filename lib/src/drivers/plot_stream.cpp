@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "momentum/eval/score.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
 #include "momentum/stream/error.hpp"
@@ -10,6 +11,7 @@ namespace momentum::drivers {
 
 // This driver runs the detect stage: its names are this file's vocabulary.
 using namespace detect;
+using namespace plot;
 
 PlotColumns plot_columns(const stream::Reader& in, const std::vector<Signal>& signals) {
   PlotColumns out;
@@ -50,19 +52,16 @@ namespace {
 
 // A view of one signal: rows outside the time window are left out.
 std::string view_script(stream::Reader& in, const PlotColumns& c, const std::optional<Thresholds>& thresholds,
-                        PlotView view, const std::vector<Event>& events, const std::vector<TruthContact>& truth,
+                        PlotView view, const std::vector<Event>& events, const std::vector<eval::TruthContact>& truth,
                         const std::string& output, const PlotOptions& options) {
   const std::size_t n = c.joints;
   const std::vector<std::size_t>& columns = c.values[c.view_signal];
-  ViewData data(view, c.signals[c.view_signal], thresholds, n, !c.velocity.empty(), event_spans(events));
+  plot::ViewData data(view, c.signals[c.view_signal], thresholds, n, !c.velocity.empty(), plot::event_spans(events));
   std::vector<double> x(n), dq(n);
   double t_prev = -INFINITY;
   while (const double* row = in.next()) {
     const double t = row[c.time];
-    if (!(t >= t_prev)) {
-      in.reject_row("time goes backwards");
-      continue;
-    }
+    if (!in.follows_in_time(t, t_prev)) continue;
     t_prev = t;
     if (t < options.from || t > options.to) continue;
     for (std::size_t j = 0; j < n; ++j) x[j] = row[columns[j]];
@@ -77,12 +76,12 @@ std::string view_script(stream::Reader& in, const PlotColumns& c, const std::opt
 
 std::string stream_plot_script(stream::Reader& in, const PlotColumns& c,
                                const std::vector<std::optional<Thresholds>>& thresholds, PlotView view,
-                               const std::vector<Event>& events, const std::vector<TruthContact>& truth,
+                               const std::vector<Event>& events, const std::vector<eval::TruthContact>& truth,
                                const std::string& output, const PlotOptions& options) {
   if (view != PlotView::time)
     return view_script(in, c, thresholds[c.view_signal], view, events, truth, output, options);
   const std::size_t n = c.joints, signals = c.signals.size();
-  PlotData data(c.signals, thresholds, n, !c.velocity.empty(), options);
+  plot::PlotData data(c.signals, thresholds, n, !c.velocity.empty(), options);
   std::vector<std::vector<double>> x(signals, std::vector<double>(n));
   std::vector<const double*> rows(signals);
   std::vector<double> dq(n);
@@ -92,13 +91,10 @@ std::string stream_plot_script(stream::Reader& in, const PlotColumns& c,
       // The stream's time policy kept this row as the start of a new time line: the time
       // axis goes on from the last row instead of drawing over earlier rows.
       shift = t_prev + step - row[c.time];
-      warn(in.where() + ": the clock stepped back; the plot shifts the rows from here by " + short_number(shift) + " s");
+      in.warn_clock_step("the plot shifts the rows from here by " + short_number(shift) + " s");
     }
     const double t = row[c.time] + shift;
-    if (!(t >= t_prev)) {
-      in.reject_row("time goes backwards");
-      continue;
-    }
+    if (!in.follows_in_time(t, t_prev)) continue;
     if (std::isfinite(t_prev)) step = t - t_prev;
     t_prev = t;
     for (std::size_t s = 0; s < signals; ++s) {
@@ -111,7 +107,25 @@ std::string stream_plot_script(stream::Reader& in, const PlotColumns& c,
   if (data.rows() == 0)
     throw Error(in.name() + ": no rows to plot" +
                 (std::isfinite(options.from) || std::isfinite(options.to) ? " in the time window" : ""));
-  return gnuplot_script(data, events, truth, output, options);
+  return plot::gnuplot_script(data, events, truth, output, options);
+}
+
+std::string force_plot_script(const std::string& events_path, const std::string& truth_path, bool strict,
+                              const std::string& output, const plot::PlotOptions& options) {
+  const auto detections = eval::read_detections(events_path, strict);
+  if (truth_path.empty()) {
+    std::vector<ForceEstimate> estimates;
+    for (const auto& d : detections)
+      if (std::isfinite(d.peak_force)) estimates.push_back({d.t_detect, d.peak_force, d.final_link});
+    if (estimates.empty())
+      throw Error(events_path + ": no event with an estimated force (f_peak: mo-detect's contact columns)");
+    return force_estimate_script(estimates, output, options);
+  }
+  std::vector<ForcePoint> points;
+  for (const auto& o : eval::score(eval::read_truth(truth_path), detections, {}).outcomes)
+    if (o.detection >= 0 && std::isfinite(o.force_error))
+      points.push_back({o.contact.peak_force, detections[static_cast<std::size_t>(o.detection)].peak_force, o.contact.link});
+  return force_view_script(points, output, options);
 }
 
 }  // namespace momentum::drivers

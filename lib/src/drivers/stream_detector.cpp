@@ -13,7 +13,7 @@
 #include <cstring>
 
 #include "momentum/core/number.hpp"
-#include "momentum/detect/calibration.hpp"
+#include "momentum/calibrate/calibration.hpp"
 #include "momentum/detect/events_json.hpp"
 #include "momentum/detect/friction_band.hpp"
 #include "momentum/drivers/live.hpp"
@@ -24,6 +24,7 @@ namespace momentum::drivers {
 
 // This driver runs the detect stage: its names are this file's vocabulary.
 using namespace detect;
+using namespace calibrate;
 namespace {
 
 Thresholds choose_thresholds(const StreamDetectorOptions& options, const model::Profile* profile, Signal signal,
@@ -91,16 +92,12 @@ class LiveInput {
 }  // namespace
 
 bool StreamDetectorOptions::IsValid(std::string* why) const {
-  auto fail = [why](const std::string& reason) {
-    if (why) *why = reason;
-    return false;
-  };
-  if (!events_path.empty() && !pass) return fail("--events goes with --pass (events are the output)");
+  if (!events_path.empty() && !pass) return invalid(why, "--events goes with --pass (events are the output)");
   if (!detector.IsValid(why)) return false;
-  if (constant_thresholds.empty() && profile_path.empty()) return fail("give a profile (-p) or --threshold");
-  if (pass && !open_output) return fail("pass needs open_output");
-  if (hook_jobs < 1) return fail("--hook-jobs must be >= 1");
-  if (!(stall >= 0)) return fail("--stall must be >= 0 s");
+  if (constant_thresholds.empty() && profile_path.empty()) return invalid(why, "give a profile (-p) or --threshold");
+  if (pass && !open_output) return invalid(why, "pass needs open_output");
+  if (hook_jobs < 1) return invalid(why, "--hook-jobs must be >= 1");
+  if (!(stall >= 0)) return invalid(why, "--stall must be >= 0 s");
   return true;
 }
 
@@ -463,7 +460,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
     const bool hooks_on_class = identify && identify->classifies() && !o.any_class;
     Event open_event;
 
-    LogHistogram latency(1e-3, 1e7, 200);
+    calibrate::LogHistogram latency(1e-3, 1e7, 200);
     std::vector<double> x(n), dq(n), x_rest(n), q(n), out(in->columns().size() + 1);
     double t_prev = -INFINITY;
     using clock = std::chrono::steady_clock;
@@ -498,10 +495,7 @@ StreamDetectorSummary StreamDetector::run(const std::string& input) {
         blind.clock_step(t_prev, t, detector_options.skip, in->where());
         t_prev = -INFINITY;
       }
-      if (!(t >= t_prev)) {
-        in->reject_row(std::isnan(t) ? "time is nan" : "time goes backwards");
-        continue;
-      }
+      if (!in->follows_in_time(t, t_prev)) continue;
       if (std::isfinite(t_prev)) summary.seconds += t - t_prev;
       t_prev = t;
       if (!std::isfinite(summary.t_first)) {

@@ -30,11 +30,6 @@ namespace {
 constexpr int kMaxBlocks = 64;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-bool reject(std::string* why, const std::string& text) {
-  if (why) *why = text;
-  return false;
-}
-
 // Pseudo-inverse of a symmetric positive semi-definite matrix (eigenvalues below tol times the
 // largest dropped).
 Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& a, double tol) {
@@ -151,29 +146,29 @@ double smallest_pseudo_eigenvalue(const model::StandardParameters& t) {
 }  // namespace
 
 bool IdentifyOptions::IsValid(std::string* why) const {
-  if (!(filter_gain > 0) || !std::isfinite(filter_gain)) return reject(why, "filter gain must be > 0");
+  if (!(filter_gain > 0) || !std::isfinite(filter_gain)) return invalid(why, "filter gain must be > 0");
   if (!(coulomb_speed > 0) || !std::isfinite(coulomb_speed))
-    return reject(why, "coulomb speed must be > 0");
+    return invalid(why, "coulomb speed must be > 0");
   if (!(rank_tolerance > 0 && rank_tolerance < 1))
-    return reject(why, "rank tolerance must be in (0, 1)");
+    return invalid(why, "rank tolerance must be in (0, 1)");
   if (!(settle_time_constants >= 0) || !std::isfinite(settle_time_constants))
-    return reject(why, "settle time must be >= 0");
-  if (!(gap_factor > 1) || !std::isfinite(gap_factor)) return reject(why, "gap factor must be > 1");
+    return invalid(why, "settle time must be >= 0");
+  if (!(gap_factor > 1) || !std::isfinite(gap_factor)) return invalid(why, "gap factor must be > 1");
   if (!(holdout_segment > 0) || !std::isfinite(holdout_segment))
-    return reject(why, "held-out segment length must be > 0");
+    return invalid(why, "held-out segment length must be > 0");
   if (holdout_every != 0 && holdout_every < 2)
-    return reject(why, "held-out period must be 0 (none) or >= 2");
-  if (!(block > 0) || !std::isfinite(block)) return reject(why, "block length must be > 0");
+    return invalid(why, "held-out period must be 0 (none) or >= 2");
+  if (!(block > 0) || !std::isfinite(block)) return invalid(why, "block length must be > 0");
   if (!(rows_per_time_constant >= 0) || !std::isfinite(rows_per_time_constant))
-    return reject(why, "rows per time constant must be >= 0");
-  if (!(min_speed >= 0) || !std::isfinite(min_speed)) return reject(why, "minimum speed must be >= 0");
-  if (velocity_noise_draws < 0) return reject(why, "velocity-noise draws must be >= 0");
+    return invalid(why, "rows per time constant must be >= 0");
+  if (!(min_speed >= 0) || !std::isfinite(min_speed)) return invalid(why, "minimum speed must be >= 0");
+  if (velocity_noise_draws < 0) return invalid(why, "velocity-noise draws must be >= 0");
   if (!(velocity_noise_seconds >= 0) || !std::isfinite(velocity_noise_seconds))
-    return reject(why, "velocity-noise seconds must be >= 0");
-  if (velocity_noise_samples < 10) return reject(why, "velocity-noise samples must be >= 10");
-  if (threads < 1) return reject(why, "threads must be >= 1");
+    return invalid(why, "velocity-noise seconds must be >= 0");
+  if (velocity_noise_samples < 10) return invalid(why, "velocity-noise samples must be >= 10");
+  if (threads < 1) return invalid(why, "threads must be >= 1");
   if (!(friction_probe_seconds >= 0) || !std::isfinite(friction_probe_seconds))
-    return reject(why, "friction-probe seconds must be >= 0");
+    return invalid(why, "friction-probe seconds must be >= 0");
   return true;
 }
 

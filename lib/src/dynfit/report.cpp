@@ -86,15 +86,12 @@ std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier&
     const double t = row[t_col];
     if (in.time_mark() == stream::TimeMark::clock_step) {
       // The stream's time policy kept this row as the start of a new time line.
-      warn(in.where() + ": the clock stepped back: the rows from here are identified as a log of their own");
+      in.warn_clock_step("the rows from here are identified as a log of their own");
       identifier.restart();
       t_last = -std::numeric_limits<double>::infinity();
     }
-    if (std::isfinite(t) && !(t > t_last)) {
-      in.reject_row("time does not increase", "t=" + core::significant(t, 17));
-      continue;
-    }
-    if (std::isfinite(t)) t_last = t;
+    if (!in.follows_in_time(t, t_last)) continue;
+    t_last = t;
     for (int j = 0; j < n; ++j) {
       q[j] = row[q_col[static_cast<std::size_t>(j)]];
       dq[j] = row[dq_col[static_cast<std::size_t>(j)]];

@@ -63,12 +63,7 @@ RunResult run(const model::Profile& profile, const std::vector<std::string>& inp
   model::append_provenance(document, "mo-dynfit", details);
   // The corrected model must build (the payload, if any, applies on top).
   model::build_model(model::profile_from_document(document, profile.path));
-  if (destination == "-") {
-    core::write_document("-", document.dump(2) + "\n");
-  } else {
-    model::save_profile_as(document, profile, destination);
-  }
-  report.outcome = "corrections written to " + (destination == "-" ? std::string("stdout") : destination);
+  report.outcome = "corrections written to " + model::write_updated_profile(document, profile, destination);
   return result;
 }
 

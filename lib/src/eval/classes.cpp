@@ -6,7 +6,7 @@
 
 namespace momentum::eval {
 
-LinkTemperature learn_link_temperature(const detect::TruthTable& truth, const std::vector<Detection>& detections,
+LinkTemperature learn_link_temperature(const eval::Truth& truth, const std::vector<Detection>& detections,
                                        double written) {
   LinkTemperature out;
   out.temperature = written;

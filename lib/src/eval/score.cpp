@@ -100,21 +100,10 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
   return detections;
 }
 
-Truth read_truth(const std::string& path) { return detect::read_truth_table(path); }
-
 bool ScoreOptions::IsValid(std::string* why) const {
-  if (!(std::isfinite(window) && window > 0)) {
-    if (why) *why = "window must be a positive number of seconds";
-    return false;
-  }
-  if (!(std::isfinite(min_torque) && min_torque >= 0)) {
-    if (why) *why = "min torque must be a number of Nm >= 0";
-    return false;
-  }
-  if (duration && !(std::isfinite(*duration) && *duration > 0)) {
-    if (why) *why = "duration must be a positive number of seconds";
-    return false;
-  }
+  if (!(std::isfinite(window) && window > 0)) return invalid(why, "window must be a positive number of seconds");
+  if (!(std::isfinite(min_torque) && min_torque >= 0)) return invalid(why, "min torque must be a number of Nm >= 0");
+  if (duration && !(std::isfinite(*duration) && *duration > 0)) return invalid(why, "duration must be a positive number of seconds");
   return true;
 }
 

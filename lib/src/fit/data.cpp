@@ -221,19 +221,12 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
     if (have_time && in.time_mark() == stream::TimeMark::clock_step) {
       // The stream's time policy kept this row as the start of a new time line: append it
       // like a log of its own (append_series), the next row restarting every joint.
-      warn(in.where() + ": the clock stepped back: the rows from here are fitted as a log of their own");
+      in.warn_clock_step("the rows from here are fitted as a log of their own");
       shift = t_last + (last_step > 0 ? last_step : 1.0) - row[t_col];
       std::fill(pending.begin(), pending.end(), 1);
     }
     const double t = row[t_col] + shift;
-    if (!std::isfinite(t)) {
-      in.reject_row("time is not a finite number");
-      continue;
-    }
-    if (have_time && !(t > t_last)) {
-      in.reject_row("time does not increase");
-      continue;
-    }
+    if (!in.follows_in_time(t, have_time ? t_last : -INFINITY)) continue;
     if (!have_time) t_first = t;
     if (have_time) last_step = t - t_last;
     have_time = true;

@@ -32,14 +32,8 @@ StandardParameters standard_parameters(const Body& body) {
 
 bool set_standard_parameters(Body& body, const StandardParameters& theta, std::string* why) {
   const double m = theta[0];
-  if (!theta.allFinite()) {
-    if (why) *why = "parameters not finite";
-    return false;
-  }
-  if (!(m > 0.0)) {
-    if (why) *why = "mass " + std::to_string(m) + " kg is not positive";
-    return false;
-  }
+  if (!theta.allFinite()) return invalid(why, "parameters not finite");
+  if (!(m > 0.0)) return invalid(why, "mass " + std::to_string(m) + " kg is not positive");
   const Eigen::Vector3d c = theta.segment<3>(1) / m;
   Eigen::Matrix3d origin;
   origin << theta[4], theta[5], theta[6], theta[5], theta[7], theta[8], theta[6], theta[8],
@@ -47,10 +41,7 @@ bool set_standard_parameters(Body& body, const StandardParameters& theta, std::s
   const Eigen::Matrix3d about_com =
       origin - m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
   std::string reason;
-  if (!is_physical_inertia(about_com, &reason)) {
-    if (why) *why = "inertia about the centre of mass: " + reason;
-    return false;
-  }
+  if (!is_physical_inertia(about_com, &reason)) return invalid(why, "inertia about the centre of mass: " + reason);
   body.mass = m;
   body.com = c;
   body.inertia = about_com;

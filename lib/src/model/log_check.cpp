@@ -177,15 +177,11 @@ std::string order_text(const std::vector<int>& order) {
 }  // namespace
 
 bool LogCheckOptions::IsValid(std::string* why) const {
-  auto bad = [&](const char* message) {
-    if (why) *why = message;
-    return false;
-  };
-  if (max_samples < 50) return bad("max_samples must be >= 50");
-  if (!(rest_speed > 0 && std::isfinite(rest_speed))) return bad("rest_speed must be > 0");
-  if (!(model_error_share >= 0 && std::isfinite(model_error_share))) return bad("model_error_share must be >= 0");
-  if (!(model_error_torque >= 0 && std::isfinite(model_error_torque))) return bad("model_error_torque must be >= 0");
-  if (max_permuted_joints < 0 || max_permuted_joints > 8) return bad("max_permuted_joints must be 0 to 8");
+  if (max_samples < 50) return invalid(why, "max_samples must be >= 50");
+  if (!(rest_speed > 0 && std::isfinite(rest_speed))) return invalid(why, "rest_speed must be > 0");
+  if (!(model_error_share >= 0 && std::isfinite(model_error_share))) return invalid(why, "model_error_share must be >= 0");
+  if (!(model_error_torque >= 0 && std::isfinite(model_error_torque))) return invalid(why, "model_error_torque must be >= 0");
+  if (max_permuted_joints < 0 || max_permuted_joints > 8) return invalid(why, "max_permuted_joints must be 0 to 8");
   return true;
 }
 

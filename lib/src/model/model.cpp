@@ -442,22 +442,18 @@ std::vector<std::string> Model::joint_names() const {
 }
 
 bool is_physical_inertia(const Eigen::Matrix3d& inertia, std::string* why) {
-  auto reject = [&](const std::string& reason) {
-    if (why) *why = reason;
-    return false;
-  };
-  if (!inertia.allFinite()) return reject("not finite");
+  if (!inertia.allFinite()) return invalid(why, "not finite");
   const double scale = inertia.cwiseAbs().maxCoeff();
   if (!((inertia - inertia.transpose()).cwiseAbs().maxCoeff() <= 1e-12 * scale)) {
-    return reject("not symmetric");
+    return invalid(why, "not symmetric");
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia,
                                                               Eigen::EigenvaluesOnly);
   const Eigen::Vector3d moments = solver.eigenvalues();  // ascending
-  if (!(moments[0] > 0.0)) return reject("not positive definite");
+  if (!(moments[0] > 0.0)) return invalid(why, "not positive definite");
   const double tolerance = 1e-9 * moments.sum();
   if (moments[2] > moments[0] + moments[1] + tolerance) {
-    return reject("principal moments violate the triangle inequality");
+    return invalid(why, "principal moments violate the triangle inequality");
   }
   return true;
 }

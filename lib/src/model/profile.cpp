@@ -405,4 +405,14 @@ void save_profile_as(nlohmann::json document, const Profile& source, const std::
   }
 }
 
+std::string write_updated_profile(const nlohmann::json& document, const Profile& source, const std::string& destination) {
+  const std::string target = destination.empty() ? source.path.string() : destination;
+  if (target == "-") {
+    core::write_document("-", document.dump(2) + "\n");
+    return "stdout";
+  }
+  save_profile_as(document, source, target);
+  return target;
+}
+
 }  // namespace momentum::model

@@ -17,11 +17,6 @@ constexpr double kDefaultRadius = 0.05;
 // Below this point speed (m/s) a clamp has no motion to oppose and uses the drawn normal.
 constexpr double kRestSpeed = 1e-3;
 
-bool fail(std::string* why, const std::string& message) {
-  if (why) *why = message;
-  return false;
-}
-
 bool range_ok(double lo, double hi, bool allow_zero) {
   return std::isfinite(lo) && std::isfinite(hi) && (allow_zero ? lo >= 0 : lo > 0) && lo <= hi;
 }
@@ -64,20 +59,20 @@ bool parse_direction(const std::string& name, ContactDirection* direction) {
 }
 
 bool ContactOptions::IsValid(std::string* why) const {
-  if (count < 0) return fail(why, "the number of collisions must be >= 0");
-  if (!range_ok(force_min, force_max, false)) return fail(why, "force range must be 0 < MIN <= MAX");
-  if (!range_ok(rise_min, rise_max, false)) return fail(why, "rise time range must be 0 < MIN <= MAX");
-  if (!range_ok(hold_min, hold_max, true)) return fail(why, "hold time range must be 0 <= MIN <= MAX");
+  if (count < 0) return invalid(why, "the number of collisions must be >= 0");
+  if (!range_ok(force_min, force_max, false)) return invalid(why, "force range must be 0 < MIN <= MAX");
+  if (!range_ok(rise_min, rise_max, false)) return invalid(why, "rise time range must be 0 < MIN <= MAX");
+  if (!range_ok(hold_min, hold_max, true)) return invalid(why, "hold time range must be 0 <= MIN <= MAX");
   if (!range_ok(release_min, release_max, false))
-    return fail(why, "release time range must be 0 < MIN <= MAX");
-  if (!(std::isfinite(min_spacing) && min_spacing >= 0)) return fail(why, "minimum spacing must be >= 0");
-  if (!(clamp_fraction >= 0 && clamp_fraction <= 1)) return fail(why, "clamping fraction must be in [0, 1]");
+    return invalid(why, "release time range must be 0 < MIN <= MAX");
+  if (!(std::isfinite(min_spacing) && min_spacing >= 0)) return invalid(why, "minimum spacing must be >= 0");
+  if (!(clamp_fraction >= 0 && clamp_fraction <= 1)) return invalid(why, "clamping fraction must be in [0, 1]");
   if (!range_ok(clamp_hold_min, clamp_hold_max, false))
-    return fail(why, "clamp hold range must be 0 < MIN <= MAX");
-  if (!(std::isfinite(clamp_stiffness) && clamp_stiffness > 0)) return fail(why, "clamp stiffness must be > 0");
-  if (!(std::isfinite(clamp_damping) && clamp_damping >= 0)) return fail(why, "clamp damping must be >= 0");
+    return invalid(why, "clamp hold range must be 0 < MIN <= MAX");
+  if (!(std::isfinite(clamp_stiffness) && clamp_stiffness > 0)) return invalid(why, "clamp stiffness must be > 0");
+  if (!(std::isfinite(clamp_damping) && clamp_damping >= 0)) return invalid(why, "clamp damping must be >= 0");
   for (double r : link_radius)
-    if (!(std::isfinite(r) && r >= 0)) return fail(why, "link radius must be >= 0");
+    if (!(std::isfinite(r) && r >= 0)) return invalid(why, "link radius must be >= 0");
   return true;
 }
 

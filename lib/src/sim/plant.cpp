@@ -117,16 +117,12 @@ Eigen::VectorXd Plant::bristle_state() const {
 }
 
 bool ControllerOptions::IsValid(std::string* why) const {
-  auto bad = [&](const char* message) {
-    if (why) *why = message;
-    return false;
-  };
-  if (!(std::isfinite(bandwidth_hz) && bandwidth_hz > 0)) return bad("controller bandwidth must be > 0 Hz");
-  if (!(std::isfinite(damping_ratio) && damping_ratio > 0)) return bad("controller damping ratio must be > 0");
-  if (!(std::isfinite(rate_hz) && rate_hz > 0)) return bad("control rate must be > 0 Hz");
-  if (!(std::isfinite(integral_time) && integral_time >= 0)) return bad("integral time must be >= 0 s");
+  if (!(std::isfinite(bandwidth_hz) && bandwidth_hz > 0)) return invalid(why, "controller bandwidth must be > 0 Hz");
+  if (!(std::isfinite(damping_ratio) && damping_ratio > 0)) return invalid(why, "controller damping ratio must be > 0");
+  if (!(std::isfinite(rate_hz) && rate_hz > 0)) return invalid(why, "control rate must be > 0 Hz");
+  if (!(std::isfinite(integral_time) && integral_time >= 0)) return invalid(why, "integral time must be >= 0 s");
   if (integral_time > 0 && !(integral_time > 1 / (2 * damping_ratio * 2 * std::numbers::pi * bandwidth_hz)))
-    return bad("integral time must exceed 1 / (2 zeta w) for a stable loop");
+    return invalid(why, "integral time must exceed 1 / (2 zeta w) for a stable loop");
   return true;
 }
 

@@ -90,19 +90,15 @@ SimulationSection read_simulation_section(const model::Profile& profile, const m
 }
 
 bool RunOptions::IsValid(std::string* why) const {
-  auto bad = [&](const std::string& message) {
-    if (why) *why = message;
-    return false;
-  };
-  if (!(std::isfinite(rate_hz) && rate_hz > 0)) return bad("rate must be > 0 Hz");
+  if (!(std::isfinite(rate_hz) && rate_hz > 0)) return invalid(why, "rate must be > 0 Hz");
   if (!(std::isfinite(internal_rate_hz) && internal_rate_hz >= rate_hz))
-    return bad("internal rate must be at least the output rate");
+    return invalid(why, "internal rate must be at least the output rate");
   std::string inner;
-  if (!trajectory.IsValid(&inner)) return bad("trajectory: " + inner);
-  if (!controller.IsValid(&inner)) return bad(inner);
-  if (!sensors.IsValid(&inner)) return bad("sensors: " + inner);
-  if (!contacts.IsValid(&inner)) return bad("collisions: " + inner);
-  if (!glitches.IsValid(&inner)) return bad(inner);
+  if (!trajectory.IsValid(&inner)) return invalid(why, "trajectory: " + inner);
+  if (!controller.IsValid(&inner)) return invalid(why, inner);
+  if (!sensors.IsValid(&inner)) return invalid(why, "sensors: " + inner);
+  if (!contacts.IsValid(&inner)) return invalid(why, "collisions: " + inner);
+  if (!glitches.IsValid(&inner)) return invalid(why, inner);
   return true;
 }
 

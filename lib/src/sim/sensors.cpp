@@ -12,10 +12,6 @@ namespace {
 constexpr std::uint64_t kNoiseStream = 31;
 constexpr std::uint64_t kTimingStream = 32;
 
-bool fail(std::string* why, const std::string& message) {
-  if (why) *why = message;
-  return false;
-}
 }  // namespace
 
 const char* glitch_kind_name(GlitchKind kind) {
@@ -39,11 +35,11 @@ bool parse_glitch_kind(const std::string& name, GlitchKind* kind) {
 }
 
 bool GlitchOptions::IsValid(std::string* why) const {
-  if (count < 0) return fail(why, "glitch count must be >= 0");
-  if (count > 0 && kinds.empty()) return fail(why, "no glitch kinds");
-  if (!(std::isfinite(velocity_jump) && velocity_jump > 0)) return fail(why, "glitch velocity jump must be > 0");
-  if (!std::isfinite(current)) return fail(why, "glitch current must be finite");
-  if (!std::isfinite(position)) return fail(why, "glitch position must be finite");
+  if (count < 0) return invalid(why, "glitch count must be >= 0");
+  if (count > 0 && kinds.empty()) return invalid(why, "no glitch kinds");
+  if (!(std::isfinite(velocity_jump) && velocity_jump > 0)) return invalid(why, "glitch velocity jump must be > 0");
+  if (!std::isfinite(current)) return invalid(why, "glitch current must be finite");
+  if (!std::isfinite(position)) return invalid(why, "glitch position must be finite");
   return true;
 }
 
@@ -82,14 +78,14 @@ bool parse_velocity_source(const std::string& name, VelocitySource* source) {
 }
 
 bool SensorOptions::IsValid(std::string* why) const {
-  if (encoder_bits < 0 || encoder_bits > 52) return fail(why, "encoder bits must be within 0..52");
-  if (!(std::isfinite(current_noise) && current_noise >= 0)) return fail(why, "current noise must be >= 0");
-  if (!(std::isfinite(velocity_noise) && velocity_noise >= 0)) return fail(why, "velocity noise must be >= 0");
+  if (encoder_bits < 0 || encoder_bits > 52) return invalid(why, "encoder bits must be within 0..52");
+  if (!(std::isfinite(current_noise) && current_noise >= 0)) return invalid(why, "current noise must be >= 0");
+  if (!(std::isfinite(velocity_noise) && velocity_noise >= 0)) return invalid(why, "velocity noise must be >= 0");
   if (!(std::isnan(time_jitter) || (std::isfinite(time_jitter) && time_jitter >= 0)))
-    return fail(why, "time jitter must be >= 0");
+    return invalid(why, "time jitter must be >= 0");
   if (!(std::isfinite(velocity_resolution) && velocity_resolution >= 0))
-    return fail(why, "velocity resolution must be >= 0");
-  if (!(drop_rate >= 0 && drop_rate < 1)) return fail(why, "drop rate must be in [0, 1)");
+    return invalid(why, "velocity resolution must be >= 0");
+  if (!(drop_rate >= 0 && drop_rate < 1)) return invalid(why, "drop rate must be in [0, 1)");
   return true;
 }
 

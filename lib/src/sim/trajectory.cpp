@@ -17,11 +17,6 @@ constexpr double kDefaultVelocityLimit = 2.0;
 constexpr std::uint64_t kPtpStream = 11;
 constexpr std::uint64_t kPhaseStream = 12;
 
-bool fail(std::string* why, const std::string& message) {
-  if (why) *why = message;
-  return false;
-}
-
 }  // namespace
 
 const char* trajectory_name(TrajectoryKind kind) {
@@ -48,31 +43,31 @@ bool parse_trajectory(const std::string& name, TrajectoryKind* kind) {
 
 bool TrajectoryOptions::IsValid(std::string* why) const {
   auto positive = [](double x) { return std::isfinite(x) && x > 0; };
-  if (!positive(duration)) return fail(why, "duration must be a positive number of seconds");
+  if (!positive(duration)) return invalid(why, "duration must be a positive number of seconds");
   // A bound keeps the step count (duration x internal rate) far inside a 64-bit integer: 1e20 s
   // overflowed it and ran until killed (issue 26's hostile test).
   if (duration > kMaxTrajectoryDuration)
-    return fail(why, "duration " + short_number(duration) + " s is longer than the " +
+    return invalid(why, "duration " + short_number(duration) + " s is longer than the " +
                          short_number(kMaxTrajectoryDuration) + " s (116 days) one run simulates");
   if (kind == TrajectoryKind::paper || kind == TrajectoryKind::multisine || kind == TrajectoryKind::excite) {
-    if (!positive(blend)) return fail(why, "blend must be a positive number of seconds");
+    if (!positive(blend)) return invalid(why, "blend must be a positive number of seconds");
     if (2 * blend > duration)
-      return fail(why, "duration " + short_number(duration) + " s is shorter than the two blends of " +
+      return invalid(why, "duration " + short_number(duration) + " s is shorter than the two blends of " +
                            short_number(blend) + " s");
-    if (!positive(amplitude)) return fail(why, "amplitude must be positive");
+    if (!positive(amplitude)) return invalid(why, "amplitude must be positive");
   }
   if (kind == TrajectoryKind::paper && !positive(frequency))
-    return fail(why, "frequency must be positive");
+    return invalid(why, "frequency must be positive");
   if (kind == TrajectoryKind::multisine || kind == TrajectoryKind::excite) {
-    if (harmonics < 1 || harmonics > 100) return fail(why, "harmonics must be within 1..100");
-    if (!positive(base_frequency)) return fail(why, "base frequency must be positive");
+    if (harmonics < 1 || harmonics > 100) return invalid(why, "harmonics must be within 1..100");
+    if (!positive(base_frequency)) return invalid(why, "base frequency must be positive");
   }
   if (kind == TrajectoryKind::ptp) {
-    if (!(limit_margin >= 0 && limit_margin < 0.5)) return fail(why, "limit margin must be in [0, 0.5)");
-    if (!(speed_fraction > 0 && speed_fraction <= 1)) return fail(why, "speed fraction must be in (0, 1]");
-    if (!(std::isfinite(min_move) && min_move > 0)) return fail(why, "minimum move time must be positive");
-    if (!(std::isfinite(max_dwell) && max_dwell >= 0)) return fail(why, "maximum dwell must be >= 0");
-    if (mirror) return fail(why, "the ptp trajectory cannot be mirrored (its poses are drawn as time advances)");
+    if (!(limit_margin >= 0 && limit_margin < 0.5)) return invalid(why, "limit margin must be in [0, 0.5)");
+    if (!(speed_fraction > 0 && speed_fraction <= 1)) return invalid(why, "speed fraction must be in (0, 1]");
+    if (!(std::isfinite(min_move) && min_move > 0)) return invalid(why, "minimum move time must be positive");
+    if (!(std::isfinite(max_dwell) && max_dwell >= 0)) return invalid(why, "maximum dwell must be >= 0");
+    if (mirror) return invalid(why, "the ptp trajectory cannot be mirrored (its poses are drawn as time advances)");
   }
   return true;
 }

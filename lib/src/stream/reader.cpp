@@ -8,6 +8,7 @@
 #include <bit>
 #include <cerrno>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <iterator>
 #include <unordered_set>
@@ -59,6 +60,23 @@ void Reader::reject_row(std::string_view kind, std::string_view detail) {
   ++rows_skipped_;
   note_skip(position_);
   warn_row(kind, text);
+}
+
+bool Reader::follows_in_time(double t, double t_previous) {
+  if (time_order_) return true;
+  if (!std::isfinite(t)) {
+    reject_row(time_fault_name(TimeFault::not_finite), "t=" + core::exact(t));
+    return false;
+  }
+  if (!(t > t_previous)) {
+    reject_row(time_fault_name(TimeFault::out_of_order), "t=" + core::exact(t) + " after t=" + core::exact(t_previous));
+    return false;
+  }
+  return true;
+}
+
+void Reader::warn_clock_step(std::string_view consequence) const {
+  warn(where() + ": the clock stepped back: " + std::string(consequence));
 }
 
 void Reader::start_time_order(const ReaderOptions& options) {

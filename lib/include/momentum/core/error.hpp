@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace momentum {
 
@@ -19,6 +20,14 @@ class Error : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// The failure of an options check, `bool IsValid(std::string* why) const`: stores `reason` in
+// *why (why may be null) and returns false, so that a check reads
+// `if (bad) return invalid(why, "what is wrong");`.
+inline bool invalid(std::string* why, std::string reason) {
+  if (why) *why = std::move(reason);
+  return false;
+}
 
 // Receives one warning message (no tool prefix, no trailing newline).
 using WarningSink = std::function<void(std::string_view message)>;

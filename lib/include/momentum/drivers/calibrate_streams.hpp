@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "momentum/detect/calibration.hpp"
+#include "momentum/calibrate/calibration.hpp"
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/reader.hpp"
@@ -22,7 +22,7 @@ namespace momentum::drivers {
 enum class ReportFormat { text, jsonl };
 
 struct CalibrateStreamsOptions {
-  detect::CalibrationOptions calibration;
+  calibrate::CalibrationOptions calibration;
   // The signals calibrated, each with its own thresholds; empty: mu and r, those the first
   // stream has.
   std::vector<detect::Signal> signals;
@@ -77,13 +77,7 @@ inline constexpr std::uint64_t kMinimumCalibrationRows = 100;
 // from the profile's, when some streams have r and others not (rest_on_r), with fewer than
 // kMinimumCalibrationRows good rows, when a check refuses the update (nothing is written then),
 // and what writing the profile throws. Throws momentum::Error for invalid options.
-std::vector<detect::CalibrationResult> calibrate_streams(const std::vector<std::string>& inputs,
+std::vector<calibrate::CalibrationResult> calibrate_streams(const std::vector<std::string>& inputs,
                                                  const CalibrateStreamsOptions& options);
-
-// Writes `document`, an edited copy of `profile`'s: to standard output as indented JSON when
-// `output` is "-", else with model::save_profile_as at `output`, or over the profile itself when
-// `output` is empty (members that did not change keep their text). Throws momentum::Error when
-// it cannot be written.
-void write_updated_profile(const nlohmann::json& document, const model::Profile& profile, const std::string& output);
 
 }  // namespace momentum::drivers

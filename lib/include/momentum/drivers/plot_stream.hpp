@@ -9,8 +9,9 @@
 #include <vector>
 
 #include "momentum/detect/events.hpp"
-#include "momentum/detect/plot.hpp"
-#include "momentum/detect/plot_views.hpp"
+#include "momentum/eval/truth.hpp"
+#include "momentum/plot/plot.hpp"
+#include "momentum/plot/plot_views.hpp"
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/stream/reader.hpp"
 
@@ -49,8 +50,16 @@ std::vector<std::optional<detect::Thresholds>> plot_thresholds(const std::string
 // does not draw over earlier rows. Throws momentum::Error when no row is left to plot (in
 // options' time window), and what the reader and the script throw.
 std::string stream_plot_script(stream::Reader& in, const PlotColumns& columns,
-                               const std::vector<std::optional<detect::Thresholds>>& thresholds, detect::PlotView view,
-                               const std::vector<detect::Event>& events, const std::vector<detect::TruthContact>& truth,
-                               const std::string& output, const detect::PlotOptions& options);
+                               const std::vector<std::optional<detect::Thresholds>>& thresholds, plot::PlotView view,
+                               const std::vector<detect::Event>& events, const std::vector<eval::TruthContact>& truth,
+                               const std::string& output, const plot::PlotOptions& options);
+
+// The force view (mo-plot --view force) of mo-detect's events at `events_path`: with a truth
+// file ("": none), the estimated peak force of each detected contact against its true one
+// (matched by eval::score, default window); without, the estimates over time. `strict`: a bad
+// event row is an error (eval::read_detections). Throws momentum::Error when no event has an
+// estimated force (without truth), and what reading the files and the script throw.
+std::string force_plot_script(const std::string& events_path, const std::string& truth_path, bool strict,
+                              const std::string& output, const plot::PlotOptions& options);
 
 }  // namespace momentum::drivers

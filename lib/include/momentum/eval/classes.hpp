@@ -23,7 +23,7 @@ struct LinkTemperature {
   double log_loss_written = NAN;  // mean -ln p(true link) as written
   double log_loss = NAN;          // ... at the learnt temperature
 };
-LinkTemperature learn_link_temperature(const detect::TruthTable& truth, const std::vector<Detection>& detections,
+LinkTemperature learn_link_temperature(const eval::Truth& truth, const std::vector<Detection>& detections,
                                        double written = 1);
 
 }  // namespace momentum::eval

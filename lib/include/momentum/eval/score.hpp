@@ -23,7 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "momentum/contact/classify.hpp"
-#include "momentum/detect/truth.hpp"
+#include "momentum/eval/truth.hpp"
 
 namespace momentum::eval {
 
@@ -53,10 +53,6 @@ struct Detection {
   double collision_probability = NAN;
 };
 
-// The truth of a campaign (mo-sim --truth): its contacts in onset order and its duration.
-using TruthContact = detect::TrueContact;
-using Truth = detect::TruthTable;
-
 // Reads an event file (a path, or "-" for stdin) with detect::EventReader, open to other
 // detectors' files: a header naming at least t_detect and link; optional t_onset_estimate and
 // the rest of mo-detect's columns. Each onset row is a detection (without a kind column: every
@@ -67,9 +63,6 @@ using Truth = detect::TruthTable;
 // (strict: momentum::Error `file:line: message`). Throws momentum::Error when the file cannot
 // be read or the header lacks t_detect or link.
 std::vector<Detection> read_detections(const std::string& path, bool strict = false);
-
-// detect::read_truth_table: mo-sim's truth file. Throws what it throws.
-Truth read_truth(const std::string& path);
 
 struct ScoreOptions {
   double window = 0.5;               // s after onset within which a detection counts, > 0

@@ -118,4 +118,10 @@ void append_provenance(nlohmann::json& document, const std::string& tool,
 // destination's folder or below, else absolute. Throws like save_profile_atomically.
 void save_profile_as(nlohmann::json document, const Profile& source, const std::filesystem::path& destination);
 
+// Where a tool's updated profile goes: `destination` "-" is standard output (the whole document,
+// indented by 2), "" the source profile itself, anything else a file written by save_profile_as.
+// Returns what was written to, for reports ("stdout" or the path). Throws like
+// save_profile_as, and what writing standard output throws (core::BrokenPipe).
+std::string write_updated_profile(const nlohmann::json& document, const Profile& source, const std::string& destination);
+
 }  // namespace momentum::model

@@ -134,6 +134,17 @@ class Reader {
   // (may be empty); the reader adds the location. Throws momentum::Error in strict mode.
   void reject_row(std::string_view kind, std::string_view detail = {});
 
+  // Whether the row last returned, at time t (s), may follow the caller's previous row at
+  // t_previous: always with the time-order policy on (it drops the rows that do not fit, and
+  // marks a clock step, after which the caller starts a new time line); with it off
+  // (ReaderOptions::time_order false), only when t is finite and after t_previous; a row that
+  // is not is rejected (reject_row, in the policy's words) and false returned.
+  bool follows_in_time(double t, double t_previous);
+
+  // Warns (momentum::warn) at a row marked TimeMark::clock_step: `where: the clock stepped
+  // back: ` and what the tool does with the rows from here (`consequence`).
+  void warn_clock_step(std::string_view consequence) const;
+
  protected:
   Reader() = default;
   std::vector<std::string> columns_;

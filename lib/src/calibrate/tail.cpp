@@ -1,10 +1,10 @@
-#include "momentum/detect/tail.hpp"
+#include "momentum/calibrate/tail.hpp"
 
 #include <algorithm>
 
 #include "momentum/stream/error.hpp"
 
-namespace momentum::detect {
+namespace momentum::calibrate {
 
 namespace {
 
@@ -122,18 +122,14 @@ double ParetoTail::supported_rate(double uncertainty) const {
 }
 
 bool TailFitOptions::IsValid(std::string* why) const {
-  auto bad = [&](const char* text) {
-    if (why) *why = text;
-    return false;
-  };
-  if (!(xi_min <= xi_max && xi_min > -1 && xi_max < 1)) return bad("tail shape bounds must satisfy -1 < min <= max < 1");
-  if (!(outlier_probability > 0 && outlier_probability < 1)) return bad("outlier probability must be in (0, 1)");
+  if (!(xi_min <= xi_max && xi_min > -1 && xi_max < 1)) return invalid(why, "tail shape bounds must satisfy -1 < min <= max < 1");
+  if (!(outlier_probability > 0 && outlier_probability < 1)) return invalid(why, "outlier probability must be in (0, 1)");
   if (!(corroborated_probability > 0 && corroborated_probability < 1))
-    return bad("corroborated outlier probability must be in (0, 1)");
-  if (max_outliers < 0) return bad("max outliers must be >= 0");
-  if (min_peaks < 2) return bad("a tail fit needs at least 2 peaks over its base level");
-  if (min_shape_peaks < min_peaks) return bad("the shape needs at least as many peaks as the fit");
-  if (!(rate_uncertainty > 1 && std::isfinite(rate_uncertainty))) return bad("rate uncertainty factor must be > 1");
+    return invalid(why, "corroborated outlier probability must be in (0, 1)");
+  if (max_outliers < 0) return invalid(why, "max outliers must be >= 0");
+  if (min_peaks < 2) return invalid(why, "a tail fit needs at least 2 peaks over its base level");
+  if (min_shape_peaks < min_peaks) return invalid(why, "the shape needs at least as many peaks as the fit");
+  if (!(rate_uncertainty > 1 && std::isfinite(rate_uncertainty))) return invalid(why, "rate uncertainty factor must be > 1");
   return true;
 }
 
@@ -213,4 +209,4 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
   return fit;
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::calibrate

@@ -14,8 +14,9 @@
 #include "momentum/detect/detector.hpp"
 #include "momentum/detect/events.hpp"
 #include "momentum/detect/thresholds.hpp"
+#include "momentum/eval/truth.hpp"
 
-namespace momentum::detect {
+namespace momentum::plot {
 
 // Ranges of PlotOptions' sizes. No image is wider than kMaxPlotWidth pixels, so more than
 // kMaxPlotPoints time buckets (each drawn as its minimum and maximum) add nothing visible; the
@@ -33,19 +34,9 @@ struct PlotOptions {
   double to = INFINITY;
   std::string title;              // empty: none; no control characters (check_gnuplot_text)
   // The band mu's thresholds were calibrated with (plot_thresholds gives it); empty: none.
-  FrictionBand friction_band;
+  detect::FrictionBand friction_band;
   bool IsValid(std::string* why) const;
 };
-
-// One true contact, as mo-sim's truth file gives it.
-struct TruthContact {
-  double t_onset = 0, t_end = 0;  // s
-  int link = 0;                   // 1..n
-};
-
-// Reads a truth file (a sample stream with columns t_onset, t_end, link; see mo-sim(1)) with
-// stream::Reader. Throws momentum::Error when it cannot be read or lacks a column.
-std::vector<TruthContact> read_truth(const std::string& path);
 
 // The decimated figure data: for each signal and joint, per time bucket, the range of the
 // residual and of the acceptance band that mo-detect applies (Detector::bounds).
@@ -53,7 +44,7 @@ class PlotData {
  public:
   // `signals` in panel order (columns); `thresholds[i]` those of signals[i], or nullopt (no
   // band drawn); `joints` >= 1; `have_velocity`: add() gets dq (rest state, envelopes).
-  PlotData(std::vector<Signal> signals, std::vector<std::optional<Thresholds>> thresholds, std::size_t joints,
+  PlotData(std::vector<detect::Signal> signals, std::vector<std::optional<detect::Thresholds>> thresholds, std::size_t joints,
            bool have_velocity, PlotOptions options);
 
   // One row: time t (s), x[i][j] residual of signal i joint j (Nm), dq[j] (rad/s, or nullptr
@@ -61,7 +52,7 @@ class PlotData {
   void add(double t, const double* const* x, const double* dq);
 
   std::size_t joints() const { return joints_; }
-  const std::vector<Signal>& signals() const { return signals_; }
+  const std::vector<detect::Signal>& signals() const { return signals_; }
   bool has_band(std::size_t signal) const { return detectors_[signal].has_value(); }
   std::uint64_t rows() const { return rows_; }
 
@@ -80,11 +71,11 @@ class PlotData {
 
  private:
   void merge_pairs();
-  std::vector<Signal> signals_;
+  std::vector<detect::Signal> signals_;
   std::size_t joints_;
   bool have_velocity_;
   PlotOptions options_;
-  std::vector<std::optional<Detector>> detectors_;
+  std::vector<std::optional<detect::Detector>> detectors_;
   std::vector<Bucket> buckets_;
   double width_ = 0;  // current bucket width, s (0: one row per bucket)
   std::uint64_t rows_ = 0;
@@ -92,8 +83,8 @@ class PlotData {
 
 // The gnuplot script that draws `data` with `events` (vertical lines at t_detect, labelled with
 // the isolated link) and `truth` (shaded from onset to end) into `output`.
-std::string gnuplot_script(const PlotData& data, const std::vector<Event>& events,
-                           const std::vector<TruthContact>& truth, const std::string& output,
+std::string gnuplot_script(const PlotData& data, const std::vector<detect::Event>& events,
+                           const std::vector<eval::TruthContact>& truth, const std::string& output,
                            const PlotOptions& options);
 
 // Throws momentum::Error "`what` holds a control character (...)" when `text` has a byte below
@@ -125,4 +116,4 @@ std::string gnuplot_output(const PlotOptions& options, int height, const std::st
 // own messages go to stderr).
 void run_gnuplot(const std::string& script);
 
-}  // namespace momentum::detect
+}  // namespace momentum::plot

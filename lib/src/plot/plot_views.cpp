@@ -1,4 +1,4 @@
-#include "momentum/detect/plot_views.hpp"
+#include "momentum/plot/plot_views.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,10 @@
 #include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 
-namespace momentum::detect {
+namespace momentum::plot {
+
+// Built on the detector's vocabulary (thresholds, motion states, events).
+using namespace detect;
 
 std::string force_view_script(const std::vector<ForcePoint>& points, const std::string& output,
                               const PlotOptions& options) {
@@ -157,7 +160,7 @@ void ViewData::add(double t, const double* x, const double* dq) {
   }
 }
 
-std::string ViewData::gnuplot_script(const std::vector<TruthContact>& truth, const std::string& output,
+std::string ViewData::gnuplot_script(const std::vector<eval::TruthContact>& truth, const std::string& output,
                                      const PlotOptions& options) const {
   const std::string name(signal_name(signal_));
   std::string s = "# momentum: " + std::string(view_ == PlotView::events ? "events" : view_ == PlotView::mu_dq ? "mu-dq" : "histogram") + " view\n";
@@ -277,4 +280,4 @@ std::string ViewData::gnuplot_script(const std::vector<TruthContact>& truth, con
   return s;
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::plot

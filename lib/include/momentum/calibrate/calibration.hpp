@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "momentum/detect/motion.hpp"
-#include "momentum/detect/tail.hpp"
+#include "momentum/calibrate/tail.hpp"
 #include "momentum/detect/friction_band.hpp"
 #include "momentum/detect/thresholds.hpp"
 
-namespace momentum::detect {
+namespace momentum::calibrate {
 
 // Counts of non-negative values in log-spaced bins, for quantiles in constant memory.
 // Bins: `bins_per_decade` per decade from `lowest` to `highest`, plus one bin below (values
@@ -150,10 +150,10 @@ class EnvelopeFitter {
   void add(double v, double m);
   // The fitted line, or nullopt when no point was added. Guarantees a + b * v >= m in floating
   // point for every point added.
-  std::optional<JointThreshold::Envelope> fit() const;
+  std::optional<detect::JointThreshold::Envelope> fit() const;
   std::uint64_t count() const { return count_; }
   // Mean threshold the line gives over the points added: a + b * mean(v).
-  double mean_level(const JointThreshold::Envelope& e) const;
+  double mean_level(const detect::JointThreshold::Envelope& e) const;
 
  private:
   double bin_width_;
@@ -190,7 +190,7 @@ struct CalibrationOptions {
   // or in percent of it. Exactly one is used; margin_nm wins when both are set. Both >= 0.
   std::optional<double> margin_nm;
   double margin_percent = 10.0;
-  RestRule rest_rule;
+  detect::RestRule rest_rule;
   // Use the motion states (needs dq): slow rows and rows at rest get their own thresholds.
   // Off: every row counts as moving.
   bool rest_state = true;
@@ -221,7 +221,7 @@ struct CalibrationOptions {
   // Signal::mu: the friction model's uncertainty (friction_band.hpp). A moving row counts by how
   // far |mu| lies beyond the band at its speed; the thresholds record the band's sigmas, and the
   // detector widens the moving threshold by the same band. Empty: none.
-  FrictionBand friction_band;
+  detect::FrictionBand friction_band;
   bool IsValid(std::string* why) const;
 };
 
@@ -253,7 +253,7 @@ struct JointTails {
 
 // One joint's thresholds as decided from its tails, and how.
 struct JointDecision {
-  JointThreshold threshold;  // moving, slow, rest, rest_absolute, rest_drift (no bands)
+  detect::JointThreshold threshold;  // moving, slow, rest, rest_absolute, rest_drift (no bands)
   ThresholdBasis moving_basis, slow_basis, rest_basis;
   std::size_t rest_drift_index = 0;  // the chosen drift candidate (when rest, not absolute)
   // Per drift candidate: the threshold it needs and the smallest contact it sees, Nm.
@@ -273,7 +273,7 @@ struct JointCalibration {
   // Per candidate drift time: the threshold it needs and the smallest contact it sees, Nm.
   std::vector<std::pair<double, double>> rest_drift_costs;
   MagnitudeSummary rest_absolute;  // |x| at rest: what a rest-blind threshold would need
-  std::optional<JointThreshold::Envelope> envelope_raw;  // before the margin
+  std::optional<detect::JointThreshold::Envelope> envelope_raw;  // before the margin
   double envelope_mean = NAN;  // mean envelope threshold over the moving rows (margin incl.)
   bool moving_contact = false;  // moving max looks like a contact
   bool slow_contact = false;    // slow max looks like a contact
@@ -308,7 +308,7 @@ struct OutOfSample {
 };
 
 struct CalibrationResult {
-  Thresholds thresholds;
+  detect::Thresholds thresholds;
   std::vector<JointCalibration> joints;
   std::uint64_t rows = 0;
   std::vector<std::string> streams;  // names of the streams, in order
@@ -344,7 +344,7 @@ struct CalibrationResult {
 class Calibrator {
  public:
   // `joints` >= 1. Throws momentum::Error when options are invalid.
-  Calibrator(Signal signal, std::size_t joints, CalibrationOptions options);
+  Calibrator(detect::Signal signal, std::size_t joints, CalibrationOptions options);
 
   // Starts a stream: the motion state and the time step restart. `have_velocity`: whether
   // this stream gives dq (then add() takes non-null dq).
@@ -369,10 +369,10 @@ class Calibrator {
     for (std::size_t j = 0; j < joints_.size(); ++j) {
       auto& J = joints_[j];
       JointTails& P = parts_.back().joints[j];
-      MotionState state = MotionState::moving;
+      detect::MotionState state = detect::MotionState::moving;
       const double xr = x_rest ? x_rest[j] : x[j];
       if (dq && options_.rest_state) state = J.tracker.update(t, dq[j], xr, true, arm_still);
-      if (state == MotionState::rest) {
+      if (state == detect::MotionState::rest) {
         // The baselines follow through the skipped rows too, as the detector's does.
         if (!J.was_rest)
           for (auto& b : J.drifting) b.start(t, J.tracker.baseline());
@@ -384,19 +384,19 @@ class Calibrator {
           J.drifting[d].update(t, xr, options_.rest_drift_candidates[d]);
         }
       }
-      J.was_rest = state == MotionState::rest;
+      J.was_rest = state == detect::MotionState::rest;
       if (!counted) continue;
-      if (state == MotionState::rest) {
+      if (state == detect::MotionState::rest) {
         J.rest_absolute.add(xr, t, dt, where);
         P.rest_absolute.add(std::fabs(xr), t, dt, where);
         P.rest_rows += !std::isnan(xr);
-      } else if (state == MotionState::slow) {
+      } else if (state == detect::MotionState::slow) {
         J.slow.add(x[j], t, dt, where);
         P.slow.add(std::fabs(x[j]), t, dt, where);
         P.slow_rows += !std::isnan(x[j]);
       } else {
         // Beyond the friction model's own uncertainty at this speed (0 without a band).
-        const double widen = signal_ == Signal::mu && dq ? options_.friction_band.width(j, dq[j]) : 0.0;
+        const double widen = signal_ == detect::Signal::mu && dq ? options_.friction_band.width(j, dq[j]) : 0.0;
         const double beyond = widen > 0 && !std::isnan(x[j]) ? std::max(0.0, std::fabs(x[j]) - widen) : x[j];
         J.moving.add(beyond, t, dt, where);
         P.moving.add(std::fabs(beyond), t, dt, where);
@@ -428,10 +428,10 @@ class Calibrator {
 
  private:
   struct Joint {
-    RestTracker tracker;
+    detect::RestTracker tracker;
     MagnitudeStats moving, slow;
     std::vector<MagnitudeStats> rest;        // per drift-time candidate
-    std::vector<DriftingBaseline> drifting;  // per drift-time candidate
+    std::vector<detect::DriftingBaseline> drifting;  // per drift-time candidate
     bool was_rest = false;
     MagnitudeStats rest_absolute;
     EnvelopeFitter envelope;
@@ -445,7 +445,7 @@ class Calibrator {
   // Every joint's peak tails and rest state start afresh (a new log or stretch).
   void begin_joint_streams();
   OutOfSample check_out_of_sample() const;
-  Signal signal_;
+  detect::Signal signal_;
   CalibrationOptions options_;
   std::vector<Joint> joints_;
   std::vector<Part> parts_;
@@ -473,11 +473,11 @@ std::string format_out_of_sample(const CalibrationResult& result);
 // the signal) with the new ones, one per joint and state, for awk:
 //   # change mu1 moving 2.5 -> 2.28 Nm -8.8%
 // ("-" for a state without a threshold, then no percentage).
-std::string format_threshold_changes(const Thresholds* old, const Thresholds& updated);
+std::string format_threshold_changes(const detect::Thresholds* old, const detect::Thresholds& updated);
 
 // The thresholds of `updated` that exceed `factor` times the same joint's and state's in `old`,
 // one line each ("mu2 moving 7.1 -> 31 Nm, 4.4 times"), for a nightly recalibration that must
 // not make the robot blind without saying so. Empty when none, or when the joint counts differ.
-std::vector<std::string> threshold_rises(const Thresholds& old, const Thresholds& updated, double factor);
+std::vector<std::string> threshold_rises(const detect::Thresholds& old, const detect::Thresholds& updated, double factor);
 
-}  // namespace momentum::detect
+}  // namespace momentum::calibrate

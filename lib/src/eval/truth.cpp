@@ -1,4 +1,4 @@
-#include "momentum/detect/truth.hpp"
+#include "momentum/eval/truth.hpp"
 
 #include <algorithm>
 
@@ -7,11 +7,11 @@
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/reader.hpp"
 
-namespace momentum::detect {
+namespace momentum::eval {
 
-TruthTable read_truth_table(const std::string& path) {
+Truth read_truth(const std::string& path) {
   auto reader = stream::Reader::open(path);
-  TruthTable truth;
+  Truth truth;
   for (const auto& comment : reader->leading_comments()) {
     const std::string_view text = core::trim(comment);
     constexpr std::string_view key = "duration:";
@@ -28,7 +28,7 @@ TruthTable read_truth_table(const std::string& path) {
   for (int j = 1; reader->find("tau_peak" + std::to_string(j)); ++j)
     c_torques.push_back(*reader->find("tau_peak" + std::to_string(j)));
   while (const double* row = reader->next()) {
-    TrueContact c;
+    TruthContact c;
     c.t_onset = row[c_onset];
     c.t_end = row[c_end];
     const double link = row[c_link];
@@ -45,8 +45,8 @@ TruthTable read_truth_table(const std::string& path) {
     truth.contacts.push_back(c);
   }
   std::stable_sort(truth.contacts.begin(), truth.contacts.end(),
-                   [](const TrueContact& a, const TrueContact& b) { return a.t_onset < b.t_onset; });
+                   [](const TruthContact& a, const TruthContact& b) { return a.t_onset < b.t_onset; });
   return truth;
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::eval

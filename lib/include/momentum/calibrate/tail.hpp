@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-namespace momentum::detect {
+namespace momentum::calibrate {
 
 // One declustered peak: |x| (signal units), time (s) and location (`file:line`).
 struct TailPeak {
@@ -173,4 +173,4 @@ TailFit fit_tail(const std::vector<TailPeak>& largest, std::uint64_t total_peaks
                  const TailFitOptions& options = {},
                  const std::function<bool(const TailPeak&)>& corroborated = {});
 
-}  // namespace momentum::detect
+}  // namespace momentum::calibrate

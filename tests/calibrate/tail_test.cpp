@@ -9,11 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "momentum/detect/calibration.hpp"
+#include "momentum/calibrate/calibration.hpp"
 #include "momentum/detect/detector.hpp"
-#include "momentum/detect/tail.hpp"
+#include "momentum/calibrate/tail.hpp"
 
 using namespace momentum::detect;
+using namespace momentum::calibrate;
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "momentum/detect/calibration.hpp"
+#include "momentum/calibrate/calibration.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,10 @@
 #include "momentum/core/number.hpp"
 #include "momentum/stream/error.hpp"
 
-namespace momentum::detect {
+namespace momentum::calibrate {
+
+// Built on the detector's vocabulary (thresholds, motion states, events).
+using namespace detect;
 
 namespace {
 
@@ -264,25 +267,21 @@ double OutOfSample::chance() const {
 // ---- Calibrator ------------------------------------------------------------------------
 
 bool CalibrationOptions::IsValid(std::string* why) const {
-  auto bad = [&](const std::string& text) {
-    if (why) *why = text;
-    return false;
-  };
-  if (margin_nm && !(std::isfinite(*margin_nm) && *margin_nm >= 0)) return bad("margin must be >= 0 Nm");
-  if (!(std::isfinite(margin_percent) && margin_percent >= 0)) return bad("margin percent must be >= 0");
+  if (margin_nm && !(std::isfinite(*margin_nm) && *margin_nm >= 0)) return invalid(why, "margin must be >= 0 Nm");
+  if (!(std::isfinite(margin_percent) && margin_percent >= 0)) return invalid(why, "margin percent must be >= 0");
   if (!rest_rule.IsValid(why)) return false;
-  if (!(envelope_bin > 0 && std::isfinite(envelope_bin))) return bad("envelope bin width must be > 0");
-  if (!(skip >= 0 && std::isfinite(skip))) return bad("skip must be >= 0 s");
-  if (!(contact_ratio > 1 && std::isfinite(contact_ratio))) return bad("contact ratio must be > 1");
+  if (!(envelope_bin > 0 && std::isfinite(envelope_bin))) return invalid(why, "envelope bin width must be > 0");
+  if (!(skip >= 0 && std::isfinite(skip))) return invalid(why, "skip must be >= 0 s");
+  if (!(contact_ratio > 1 && std::isfinite(contact_ratio))) return invalid(why, "contact ratio must be > 1");
   if (!(false_alarms_per_hour > 0 && std::isfinite(false_alarms_per_hour)))
-    return bad("false-alarm rate must be > 0 per hour");
-  if (!(peak_window > 0 && std::isfinite(peak_window))) return bad("peak window must be > 0 s");
+    return invalid(why, "false-alarm rate must be > 0 per hour");
+  if (!(peak_window > 0 && std::isfinite(peak_window))) return invalid(why, "peak window must be > 0 s");
   if (!tail.IsValid(why)) return false;
-  if (rest_drift_candidates.empty()) return bad("need at least one rest drift time");
+  if (rest_drift_candidates.empty()) return invalid(why, "need at least one rest drift time");
   for (double d : rest_drift_candidates)
-    if (!(d >= 0 && std::isfinite(d))) return bad("rest drift times must be >= 0 s");
-  if (!(contact_rise > 0 && std::isfinite(contact_rise))) return bad("contact rise time must be > 0 s");
-  if (!(min_state_samples >= 1)) return bad("a state needs at least 1 row");
+    if (!(d >= 0 && std::isfinite(d))) return invalid(why, "rest drift times must be >= 0 s");
+  if (!(contact_rise > 0 && std::isfinite(contact_rise))) return invalid(why, "contact rise time must be > 0 s");
+  if (!(min_state_samples >= 1)) return invalid(why, "a state needs at least 1 row");
   return true;
 }
 
@@ -859,9 +858,9 @@ std::string format_calibration_report(const CalibrationResult& r) {
   return out;
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::calibrate
 
-namespace momentum::detect {
+namespace momentum::calibrate {
 
 std::string format_threshold_changes(const Thresholds* old, const Thresholds& updated) {
   const std::string sig(signal_name(updated.signal));
@@ -903,4 +902,4 @@ std::vector<std::string> threshold_rises(const Thresholds& old, const Thresholds
   return out;
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::calibrate

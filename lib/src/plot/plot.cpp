@@ -1,4 +1,4 @@
-#include "momentum/detect/plot.hpp"
+#include "momentum/plot/plot.hpp"
 
 #include <sys/wait.h>
 
@@ -11,11 +11,14 @@
 
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/detect/truth.hpp"
+#include "momentum/eval/truth.hpp"
 #include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
 
-namespace momentum::detect {
+namespace momentum::plot {
+
+// Built on the detector's vocabulary (thresholds, motion states, events).
+using namespace detect;
 
 void check_gnuplot_text(std::string_view text, std::string_view what) {
   for (char c : text) {
@@ -74,27 +77,17 @@ std::string gnuplot_output(const PlotOptions& options, int height, const std::st
 }
 
 bool PlotOptions::IsValid(std::string* why) const {
-  auto bad = [&](const std::string& text) {
-    if (why) *why = text;
-    return false;
-  };
-  if (format != "png" && format != "svg" && format != "pdf") return bad("format must be png, svg or pdf, not '" + format + "'");
+  if (format != "png" && format != "svg" && format != "pdf") return invalid(why, "format must be png, svg or pdf, not '" + format + "'");
   try {
     check_gnuplot_text(title, "the title");
   } catch (const Error& e) {
-    return bad(e.what());
+    return invalid(why, e.what());
   }
-  if (width < kMinPlotWidth || width > kMaxPlotWidth) return bad("width must be 200..20000 pixels");
-  if (panel_height < kMinPanelHeight || panel_height > kMaxPanelHeight) return bad("panel height must be 80..5000 pixels");
-  if (max_points < kMinPlotPoints || max_points > kMaxPlotPoints) return bad("max points must be 10..100000");
-  if (!(from < to)) return bad("the time window is empty (from >= to)");
+  if (width < kMinPlotWidth || width > kMaxPlotWidth) return invalid(why, "width must be 200..20000 pixels");
+  if (panel_height < kMinPanelHeight || panel_height > kMaxPanelHeight) return invalid(why, "panel height must be 80..5000 pixels");
+  if (max_points < kMinPlotPoints || max_points > kMaxPlotPoints) return invalid(why, "max points must be 10..100000");
+  if (!(from < to)) return invalid(why, "the time window is empty (from >= to)");
   return true;
-}
-
-std::vector<TruthContact> read_truth(const std::string& path) {
-  std::vector<TruthContact> out;
-  for (const auto& c : read_truth_table(path).contacts) out.push_back(TruthContact{c.t_onset, c.t_end, c.link});
-  return out;
 }
 
 PlotData::PlotData(std::vector<Signal> signals, std::vector<std::optional<Thresholds>> thresholds, std::size_t joints,
@@ -177,7 +170,7 @@ void PlotData::merge_pairs() {
 }
 
 std::string gnuplot_script(const PlotData& data, const std::vector<Event>& events,
-                           const std::vector<TruthContact>& truth, const std::string& output,
+                           const std::vector<eval::TruthContact>& truth, const std::string& output,
                            const PlotOptions& options) {
   const std::size_t n = data.joints(), columns = data.signals().size();
   const int height = static_cast<int>(n) * options.panel_height + (options.title.empty() ? 40 : 80);
@@ -298,4 +291,4 @@ void run_gnuplot(const std::string& script) {
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) throw Error("gnuplot failed (its messages are above)");
 }
 
-}  // namespace momentum::detect
+}  // namespace momentum::plot

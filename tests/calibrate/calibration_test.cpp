@@ -11,11 +11,12 @@
 #include <vector>
 
 #include "momentum/core/number.hpp"
-#include "momentum/detect/calibration.hpp"
+#include "momentum/calibrate/calibration.hpp"
 #include "momentum/detect/detector.hpp"
 #include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
+using namespace momentum::calibrate;
 namespace friction = momentum::friction;
 
 namespace {

@@ -21,10 +21,10 @@
 
 #include "momentum/detect/detector.hpp"
 #include "momentum/detect/events.hpp"
-#include "momentum/detect/plot.hpp"
+#include "momentum/plot/plot.hpp"
 #include "momentum/detect/thresholds.hpp"
 
-namespace momentum::detect {
+namespace momentum::plot {
 
 enum class PlotView { time, events, mu_dq, histogram, force };
 
@@ -40,7 +40,7 @@ struct EventSpan {
 
 // The spans of `events` (mo-detect's rows in file order, or read_events' merged events): an
 // onset row opens a span, the end row of the same event closes it, an end row alone is a span.
-std::vector<EventSpan> event_spans(const std::vector<Event>& events);
+std::vector<EventSpan> event_spans(const std::vector<detect::Event>& events);
 
 // One detected contact of the force view: true and estimated peak force (N), its link.
 struct ForcePoint {
@@ -74,14 +74,14 @@ class ViewData {
   // add() gets dq (mu-dq needs it). `spans`: the events to show (events view). Throws
   // momentum::Error when the view cannot be drawn from what is given (mu-dq without
   // velocities or thresholds, events without events).
-  ViewData(PlotView view, Signal signal, std::optional<Thresholds> thresholds, std::size_t joints,
+  ViewData(PlotView view, detect::Signal signal, std::optional<detect::Thresholds> thresholds, std::size_t joints,
            bool have_velocity, std::vector<EventSpan> spans);
 
   // One row at time t (s): residuals x[0..n) (Nm), velocities dq[0..n) (rad/s) or nullptr.
   void add(double t, const double* x, const double* dq);
 
   // The gnuplot script drawing the view into `output`; `truth` for the events view.
-  std::string gnuplot_script(const std::vector<TruthContact>& truth, const std::string& output,
+  std::string gnuplot_script(const std::vector<eval::TruthContact>& truth, const std::string& output,
                              const PlotOptions& options) const;
 
   std::uint64_t rows() const { return rows_; }
@@ -94,10 +94,10 @@ class ViewData {
   static constexpr std::size_t kSpeedBins = 1000;
 
   PlotView view_;
-  Signal signal_;
-  std::optional<Thresholds> thresholds_;
+  detect::Signal signal_;
+  std::optional<detect::Thresholds> thresholds_;
   std::size_t joints_;
-  std::optional<Detector> detector_;
+  std::optional<detect::Detector> detector_;
   std::vector<EventSpan> spans_;
   std::uint64_t rows_ = 0;
   double t_first_ = 0, t_last_ = 0;
@@ -110,4 +110,4 @@ class ViewData {
   std::vector<std::vector<double>> peak_, bound_;
 };
 
-}  // namespace momentum::detect
+}  // namespace momentum::plot

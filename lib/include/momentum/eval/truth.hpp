@@ -9,10 +9,10 @@
 
 #include <Eigen/Core>
 
-namespace momentum::detect {
+namespace momentum::eval {
 
 // One true contact.
-struct TrueContact {
+struct TruthContact {
   double t_onset = 0, t_end = 0;  // s
   int link = 0;                   // 1..n
   bool clamp = false;             // an obstacle met (a collision), else a push (a contact)
@@ -23,8 +23,8 @@ struct TrueContact {
   double peak_torque = NAN;
 };
 
-struct TruthTable {
-  std::vector<TrueContact> contacts;  // in onset order
+struct Truth {
+  std::vector<TruthContact> contacts;  // in onset order
   std::optional<double> duration;     // s, from the "# duration: S" comment when present
 };
 
@@ -33,6 +33,6 @@ struct TruthTable {
 // momentum::Error when the file cannot be read or a required column is missing, and
 // `file:line: message` for a contact whose t_end precedes its t_onset or whose link is not a
 // positive whole number.
-TruthTable read_truth_table(const std::string& path);
+Truth read_truth(const std::string& path);
 
-}  // namespace momentum::detect
+}  // namespace momentum::eval
