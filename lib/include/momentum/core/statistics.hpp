@@ -131,6 +131,10 @@ class RunningMedian {
   int nans_ = 0;  // NaN values in the window
 };
 
+// The same median of the last N values as RunningMedian (bit for bit: the same element, the same
+// mean of the two middle ones), kept up to date on every push by moving the values of a sorted
+// copy of the window, for a caller that needs the median after every value (a stream's time
+// step, row by row). Finite values only (a NaN has no place in the sorted copy).
 template <int N>
 class SortedRunningMedian {
  public:
