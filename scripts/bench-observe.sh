@@ -4,8 +4,9 @@
 # t, q<j>, dq<j>, tau_m<j>. Reports rows/s and joint-samples/s (rows x joints), best of 3, for
 # the first-order observer, the second order, and the second order with LuGre compensation.
 #   scripts/bench-observe.sh [BUILD_DIR] [ROWS] [--callgrind]
-# With --callgrind, also profiles 100,000 UR5 rows (second order + LuGre) under
-# valgrind --tool=callgrind and prints the functions with the most instructions.
+# With --callgrind, also profiles 200,000 UR5 rows under valgrind --tool=callgrind (order 1
+# without friction, and order 2 with LuGre) and prints the instructions per row of the parts:
+# the momentum pass, the filters, the signal check, the reader with its time-order policy.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -79,29 +80,46 @@ for spec in ur5:6 panda:7; do
   echo "$robot: $rows rows x $((1 + 3 * joints)) columns, $(stat -c %s "$tmp/$robot.bin") bytes binary"
   best_of_3 "  mo-cat bin -> bin (I/O floor)" "$rows" "$joints" "$bin/mo-cat" -q "$tmp/$robot.bin"
   best_of_3 "  order 1" "$rows" "$joints" "$bin/mo-observe" -q -p "tests/data/$robot.json" "$tmp/$robot.bin"
+  best_of_3 "  order 1, no signal check" "$rows" "$joints" "$bin/mo-observe" -q -p "tests/data/$robot.json" --no-signal-check "$tmp/$robot.bin"
   best_of_3 "  order 2 (K1 50, K2 5)" "$rows" "$joints" "$bin/mo-observe" -q -p "tests/data/$robot.json" --order 2 --k2 5 "$tmp/$robot.bin"
   best_of_3 "  order 2 + LuGre (r, tau_f, mu)" "$rows" "$joints" "$bin/mo-observe" -q -p "$tmp/$robot-friction.json" --order 2 --k2 5 "$tmp/$robot.bin"
 done
 
 if [[ $profile_run == --callgrind ]]; then
-  make_stream ur5 6 100000 "$tmp/small.bin"
-  valgrind --tool=callgrind --callgrind-out-file="$tmp/callgrind.out" \
-    "$bin/mo-observe" -q -p "$tmp/ur5-friction.json" --order 2 --k2 5 "$tmp/small.bin" > /dev/null 2> "$tmp/valgrind.log"
-  echo "callgrind, 100,000 UR5 rows, order 2 + LuGre: instructions per row, inclusive"
-  callgrind_annotate --inclusive=yes "$tmp/callgrind.out" 2>/dev/null | awk '
-    /PROGRAM TOTALS/ { gsub(",", "", $1); printf "  %-58s %7.0f\n", "whole program", $1 / 100000 }
-    /\[.*mo-observe\]$/ || /libm/ {
-      n = $1; gsub(",", "", n)
-      name = ""
-      if ($0 ~ /StreamObserver::run/) name = "StreamObserver::run (everything per row)"
-      else if ($0 ~ /momentum_pass</) name = "model::momentum_and_beta (p, beta; dynamics)"
-      else if ($0 ~ /ResidualObserver::step/) name = "ResidualObserver::step (filters + friction)"
-      else if ($0 ~ /observer::discretize/) name = "  of which discretize (filter coefficients)"
-      else if ($0 ~ /BinaryReader::next/) name = "stream::Reader::next"
-      else if ($0 ~ /Writer::row/) name = "stream::Writer::row"
-      else if ($0 ~ /__sincos/) name = "libm sincos (in the dynamics)"
-      else if ($0 ~ /__expm1/) name = "libm expm1 (LuGre)"
-      else if ($0 ~ /__exp_fma|__exp1|__ieee754_exp/) name = "libm exp (LuGre Stribeck level)"
-      if (name != "" && !(name in seen)) { seen[name] = 1; printf "  %-58s %7.0f\n", name, n / 100000 }
-    }'
+  # Instructions per row, inclusive, by part: callgrind counts them reproducibly on a shared
+  # machine. 200,000 UR5 rows, binary in and out; the signal check on (the default).
+  profile_rows=200000
+  make_stream ur5 6 "$profile_rows" "$tmp/small.bin"
+  profile() {  # label, then mo-observe's options
+    local label=$1
+    shift
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/callgrind.out" \
+      "$bin/mo-observe" -q "$@" "$tmp/small.bin" > /dev/null 2> "$tmp/valgrind.log"
+    echo "callgrind, $profile_rows UR5 rows, $label: instructions per row, inclusive"
+    callgrind_annotate --inclusive=yes "$tmp/callgrind.out" 2>/dev/null | awk -v rows="$profile_rows" '
+      /PROGRAM TOTALS/ { gsub(",", "", $1); printf "  %-58s %7.0f\n", "whole program", $1 / rows }
+      /\[.*mo-observe\]$/ || /libm/ {
+        n = $1; gsub(",", "", n)
+        name = ""
+        if ($0 ~ /StreamObserver::run\(/ && $0 !~ /lambda/) name = "StreamObserver::run (everything per row)"
+        else if ($0 ~ /MomentumObserver::step/) name = "MomentumObserver::step (dynamics + filters)"
+        else if ($0 ~ /momentum_pass</) name = "  momentum pass (p, beta; dynamics)"
+        else if ($0 ~ /ResidualObserver::step/) name = "  ResidualObserver::step (filters + friction)"
+        else if ($0 ~ /__sincos/) name = "  libm sincos (in the dynamics)"
+        else if ($0 ~ /__expm1/) name = "  libm expm1 (LuGre)"
+        else if ($0 ~ /__exp_fma|__exp1|__ieee754_exp/) name = "  libm exp (LuGre Stribeck level)"
+        else if ($0 ~ /SignalCheck::(learn|disagree|velocity_jumps|beyond_limits|velocity_on_trend)\(/) {
+          # The signal check: the sum of its entry points (they do not call each other).
+          fn = $0; sub(/\(.*/, "", fn); sub(/.*SignalCheck::/, "", fn)
+          if (!(fn in check_seen)) { check_seen[fn] = 1; check += n }
+          next
+        }
+        else if ($0 ~ /Reader::next\(/) name = "stream::Reader::next (reader + time order)"
+        else if ($0 ~ /Writer::row/) name = "stream::Writer::row"
+        if (name != "" && !(name in seen)) { seen[name] = 1; printf "  %-58s %7.0f\n", name, n / rows }
+      }
+      END { printf "  %-58s %7.0f\n", "SignalCheck (learn, disagree, velocity_jumps, limits)", check / rows }'
+  }
+  profile "order 1, no friction" -p tests/data/ur5.json
+  profile "order 2 + LuGre" -p "$tmp/ur5-friction.json" --order 2 --k2 5
 fi

@@ -1,6 +1,7 @@
 // Robust statistics against closed-form cases.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -50,6 +51,56 @@ TEST(WhiteNoise, QuantisedNoiseIsNotRoundedToTheStep) {
   EXPECT_NEAR(estimate(exact), s, 0.01 * s);
   const double with_steps = std::sqrt(s * s + step * step / 12);
   EXPECT_NEAR(estimate(quantised), with_steps, 0.02 * with_steps);
+}
+
+// RunningMedian keeps a sorted copy between updates and merges the pushes into it: its median
+// must be the one an nth_element over the last N values gives (the value selected afresh), bit
+// for bit, whether it is updated after every push, every few, or after more pushes than the
+// window holds; with tied values, while the window fills, and with a NaN in the window (then
+// selected as before).
+TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
+  constexpr int kN = 32;
+  auto selected = [](const std::vector<double>& history) {
+    const std::size_t count = std::min<std::size_t>(history.size(), kN);
+    std::vector<double> last(history.end() - static_cast<std::ptrdiff_t>(count), history.end());
+    const std::size_t mid = count / 2;
+    std::nth_element(last.begin(), last.begin() + static_cast<std::ptrdiff_t>(mid), last.end());
+    double median = last[mid];
+    if (count % 2 == 0) median = 0.5 * (median + *std::max_element(last.begin(), last.begin() + static_cast<std::ptrdiff_t>(mid)));
+    return median;
+  };
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> any(0.0, 1.0);
+  std::uniform_int_distribution<int> few(0, 4);
+  std::uniform_int_distribution<int> gap(1, 80);  // pushes between updates: up to 2.5 N
+  int updates = 0;
+  for (int series = 0; series < 3; ++series) {
+    RunningMedian<kN> median;
+    std::vector<double> history;
+    int until_update = 1;
+    for (int k = 0; k < 20000; ++k) {
+      double v = series == 1 ? 1e-4 * few(rng) : any(rng);
+      if (series == 2 && k % 997 == 500) v = std::nan("");
+      median.push(v);
+      history.push_back(v);
+      if (--until_update > 0) continue;
+      until_update = (k / 1000) % 2 ? gap(rng) : 1 + few(rng);
+      const double expected = selected(history);
+      const double got = median.update();
+      bool nan_in_window = false;
+      for (std::size_t m = history.size() > kN ? history.size() - kN : 0; m < history.size(); ++m)
+        nan_in_window = nan_in_window || std::isnan(history[m]);
+      if (nan_in_window) continue;  // the selection with a NaN is unspecified, but finite values follow
+      ASSERT_EQ(got, expected) << "series " << series << ", push " << k;
+      ASSERT_EQ(median.value(), expected);
+      ++updates;
+    }
+  }
+  EXPECT_GT(updates, 10000);
+  RunningMedian<4> m;
+  EXPECT_EQ(m.update(), 0);
+  for (double v : {3.0, 1.0, 2.0, 10.0, 0.0}) m.push(v);
+  EXPECT_EQ(m.update(), 1.5);  // 3 left: {0, 1, 2, 10}
 }
 
 // The sorted window gives RunningMedian's median bit for bit after every push: while the window

@@ -254,6 +254,104 @@ TEST(TimeOrder, GarbageTimesHoldAtMostThreeRows) {
     }
 }
 
+// pass() is push() for a row in time order, without the copy through the queue: over a stream
+// with every kind of fault (exact duplicates, repeated times, corrupt and non-finite times, rows
+// written early or late, lost samples, clock steps back and forward, jitter), taking the fast
+// path wherever it is offered keeps and drops the same rows, at the same positions, with the
+// same marks, faults and summary as pushing every row; and it is offered for most rows.
+TEST(TimeOrder, TheFastPathKeepsAndDropsWhatPushDoes) {
+  std::mt19937_64 random(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<std::pair<double, double>> rows;  // (t, value)
+  double t = 100;
+  for (int i = 0; i < 60000; ++i) {
+    const double u = unit(random);
+    double row_t = t;
+    double value = static_cast<double>(i);
+    if (u < 0.01 && !rows.empty()) {
+      rows.push_back(rows.back());  // an exact duplicate
+      continue;
+    }
+    if (u < 0.02 && !rows.empty()) {
+      row_t = rows.back().first;  // a repeated time, other values
+    } else if (u < 0.025) {
+      row_t = 1e9 * unit(random);  // a corrupt time
+    } else if (u < 0.03) {
+      row_t = u < 0.0275 ? std::nan("") : std::numeric_limits<double>::infinity();
+    } else if (u < 0.035) {
+      row_t = t - 0.001 * (1 + 5 * unit(random));  // written late
+    } else {
+      if (u < 0.04) t += 0.001 * (2 + static_cast<int>(10 * unit(random)));  // lost samples
+      else if (u < 0.042) t -= 0.5;                                           // clock back
+      else if (u < 0.043) t += 2.0;                                           // clock forward
+      t += 0.001 * (0.8 + 0.4 * unit(random));                                // jitter
+      row_t = t;
+    }
+    rows.emplace_back(row_t, value);
+  }
+  struct Seen {
+    std::vector<double> kept_values;
+    std::vector<std::uint64_t> kept_at;
+    std::vector<ms::TimeMark> marks;
+    std::vector<std::uint64_t> dropped;
+    std::vector<ms::TimeFault> faults;
+    ms::TimeOrder::Summary summary;
+    double median_dt = 0;
+    std::size_t passed = 0;
+  };
+  auto run_rows = [&](bool fast) {
+    Seen seen;
+    ms::TimeOrder order(2, 0, [&](std::uint64_t position, ms::TimeFault fault, const std::string&) {
+      seen.dropped.push_back(position);
+      seen.faults.push_back(fault);
+    });
+    auto drain = [&] {
+      while (const auto* row = order.pop()) {
+        seen.kept_values.push_back(row->values[1]);
+        seen.kept_at.push_back(row->position);
+        seen.marks.push_back(row->mark);
+      }
+    };
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const double row[2] = {rows[i].first, rows[i].second};
+      if (fast && order.pass(row)) {
+        ++seen.passed;
+        seen.kept_values.push_back(row[1]);
+        seen.kept_at.push_back(i + 1);
+        seen.marks.push_back(ms::TimeMark::none);
+        continue;
+      }
+      order.push(row, i + 1);
+      drain();
+    }
+    order.finish();
+    drain();
+    seen.summary = order.summary();
+    seen.median_dt = order.median_dt();
+    return seen;
+  };
+  const Seen slow = run_rows(false), fast = run_rows(true);
+  EXPECT_EQ(fast.kept_values, slow.kept_values);
+  EXPECT_EQ(fast.kept_at, slow.kept_at);
+  EXPECT_EQ(fast.marks, slow.marks);
+  EXPECT_EQ(fast.dropped, slow.dropped);
+  EXPECT_EQ(fast.faults, slow.faults);
+  EXPECT_EQ(fast.summary.kept, slow.summary.kept);
+  EXPECT_EQ(fast.summary.duplicates, slow.summary.duplicates);
+  EXPECT_EQ(fast.summary.not_finite, slow.summary.not_finite);
+  EXPECT_EQ(fast.summary.out_of_order, slow.summary.out_of_order);
+  EXPECT_EQ(fast.summary.gaps, slow.summary.gaps);
+  EXPECT_EQ(fast.summary.clock_steps, slow.summary.clock_steps);
+  EXPECT_EQ(fast.median_dt, slow.median_dt);
+  // Every kind of fault occurred, and most rows took the fast path.
+  EXPECT_GT(slow.summary.duplicates, 100u);
+  EXPECT_GT(slow.summary.not_finite, 50u);
+  EXPECT_GT(slow.summary.out_of_order, 100u);
+  EXPECT_GT(slow.summary.gaps, 100u);
+  EXPECT_GT(slow.summary.clock_steps, 50u);
+  EXPECT_GT(fast.passed, rows.size() * 8 / 10);
+}
+
 TEST(TimeOrder, TheReaderAppliesItAndNamesTheLine) {
   const std::string path = ::testing::TempDir() + "/time_order_" + std::to_string(::getpid()) + ".csv";
   {

@@ -178,6 +178,8 @@ bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, 
 bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
                            const double* dq_b, double typical_dt, std::string* why) const {
   const double dt = t_b - t_a;
+  // As tolerance() stretches the scale for the interval.
+  const double stretch = typical_dt > 0 ? std::max(1.0, dt / typical_dt) : 1.0;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const Joint& J = joints_[j];
     const int index = static_cast<int>(j);
@@ -191,6 +193,9 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     }
     if (!ready()) continue;
     const double e = moved - 0.5 * dt * (dq_a[j] + dq_b[j]);
+    // Within the learnt scale alone (which the tolerance is at least, the quantisation floor
+    // being the other candidate of its max): agreed, without the floor's square root.
+    if (std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.value() * stretch)) continue;
     const double tol = tolerance(index, dt, typical_dt);
     if (!(std::fabs(e) <= tol)) {
       if (why) *why = joint_name(index) + "'s position moved " + core::short_number(moved) + ", its velocity says " +

@@ -110,6 +110,21 @@ void TimeOrder::push(const double* row, std::uint64_t position) {
   resolve(false);
 }
 
+bool TimeOrder::pass(const double* row) {
+  if (!have_last_ || !held_.empty() || ready_next_ < ready_.size()) return false;
+  const double t = row[time_];
+  // (A duplicate of the last kept row has its time: it does not fit.)
+  if (!(std::isfinite(t) && fits(last_t_, t))) return false;
+  if (have_previous_ && std::equal(row, row + width_, previous_.begin(), same)) return false;
+  std::copy(row, row + width_, previous_.begin());
+  have_previous_ = true;
+  // keep(), for a row that fits: a regular step (fits() allows no more than a gap's length).
+  median_dt_ = step_median_.push(t - last_t_);
+  last_t_ = t;
+  ++summary_.kept;
+  return true;
+}
+
 void TimeOrder::finish() { resolve(true); }
 
 const TimeOrder::Row* TimeOrder::pop() {

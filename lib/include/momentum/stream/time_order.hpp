@@ -78,6 +78,12 @@ class TimeOrder {
   void push(const double* row, std::uint64_t position);
   // End of input: decides every held row.
   void finish();
+  // The fast path of a stream in time order: when no row is held or waiting and `row` (width
+  // values) is the next step of the time line (finite t, later than the last kept row by at
+  // most 1.5 median steps, not a duplicate), takes it as push() would keep it, marked none,
+  // without copying it, and returns true: the caller hands `row` itself on. Otherwise changes
+  // nothing and returns false (the caller pushes it).
+  bool pass(const double* row);
   // The next kept row, or nullptr when none is ready. The pointer stays valid until the next
   // call of push(), finish() or pop().
   const Row* pop();
