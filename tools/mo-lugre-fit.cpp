@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
   app.add_option("-o,--output", output, "write the updated profile to FILE instead (- for stdout)")->type_name("FILE");
   app.add_flag("--force", o.force, "write even when the fit is worse than the profile's current friction");
   app.add_option("--report", report_path, "write the JSON report to FILE (- for stdout)")->type_name("FILE");
-  app.add_option("--model", model_name, "lugre (default), stribeck or coulomb-viscous")->type_name("MODEL");
+  app.add_option("--model", model_name, friction::kind_names_text(" (default)"))->type_name("MODEL");
   app.add_option("--joints", joints_text, "joints to fit, e.g. 1,3 (default: every joint in the stream)")->type_name("LIST");
   app.add_option("--skip", o.select.skip, "seconds at the start of each log that do not count")->type_name("SECONDS");
   app.add_option("--window", o.window_text, "count only samples with A <= t <= B (stream time)")->type_name("A:B");
