@@ -102,6 +102,10 @@ TEST(FrictionRegistry, StartsInAndRelaxesToItsSteadyState) {
     SCOPED_TRACE(mf::kind_name(kind));
     for (double w : {-0.4, -0.02, 0.0, 0.01, 0.3}) {
       const double steady = mf::visit(kind, [&](auto model) { return decltype(model)::steady(kJoint, w); });
+      // Sliding, the steady friction is the sliding level in the direction of motion plus viscous.
+      if (w != 0) {
+        EXPECT_NEAR(steady - kJoint.sigma2 * w, std::copysign(mf::sliding_level(kind, kJoint, w), w), 1e-12) << w;
+      }
       mf::JointFriction<double> started(kind, kJoint);
       EXPECT_DOUBLE_EQ(started.step(w, 1e-3), steady) << w;
       // From rest at another velocity: the state relaxes within a few travels of level / sigma0.

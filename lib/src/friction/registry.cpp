@@ -59,6 +59,10 @@ bool has_state(Kind kind) {
   return visit(kind, [](auto model) { return decltype(model)::kHasState; });
 }
 
+double sliding_level(Kind kind, const Parameters<double>& p, double w) {
+  return visit(kind, [&](auto model) { return decltype(model)::sliding_level(p, w); });
+}
+
 void steady_gradient(Kind kind, const Parameters<double>& p, double w, double* gradient) {
   visit(kind, [&](auto model) { decltype(model)::steady_gradient(p, w, gradient); });
 }

@@ -48,6 +48,11 @@ struct CoulombViscous {
   static T start(const Parameters<T>& p, const T& w, T&) {
     return coulomb_viscous_torque(p, w);
   }
+  // The sliding friction level at velocity w, Nm: the direction's Coulomb level.
+  template <class T>
+  static T sliding_level(const Parameters<T>& p, const T& w) {
+    return coulomb_level(p, w);
+  }
   // Friction at constant velocity w, Nm.
   template <class T>
   static T steady(const Parameters<T>& p, const T& w) {

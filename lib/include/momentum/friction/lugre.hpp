@@ -70,6 +70,11 @@ struct Lugre {
     z = stribeck_level(p, w) * detail::sign(w) / p.sigma0;
     return stribeck_torque(p, w);
   }
+  // The sliding friction level at velocity w, Nm: g(w), which the bristles saturate at.
+  template <class T>
+  static T sliding_level(const Parameters<T>& p, const T& w) {
+    return stribeck_level(p, w);
+  }
   // Friction at constant velocity w, Nm: the Stribeck curve.
   template <class T>
   static T steady(const Parameters<T>& p, const T& w) {

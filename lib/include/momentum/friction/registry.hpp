@@ -6,6 +6,8 @@
 //   kHasState                         an internal state z advanced by Options::update
 //   must_be_positive(i), feasible(p), IsValid(p, why)    its physical bounds
 //   start(p, w, z), step(p, w, dt, update, z)            its evaluation, templated on the scalar
+//   sliding_level(p, w)               the friction level while sliding (a bristle state
+//                                     saturates at sliding_level / sigma0)
 //   steady(p, w), steady_gradient(p, w, g), affine_from(p, direction, constant, slope)
 //                                     its steady state and the gradient the friction band needs
 // The observer, the fitter, the report, the band, the profile's JSON and the tools reach the
@@ -80,6 +82,9 @@ bool must_be_positive(Kind kind, int i);
 // True when the model keeps a state advanced by Options::update (the JSON then has "update").
 bool has_state(Kind kind);
 
+// The model's friction level while sliding at w, Nm (>= 0 for valid parameters): a bristle
+// state saturates at sliding_level / sigma0.
+double sliding_level(Kind kind, const Parameters<double>& p, double w);
 // The model's steady-friction gradient d|F(w)|/d(parameter) (8 values, array order) for the
 // direction of w (w = 0: the positive side's limit).
 void steady_gradient(Kind kind, const Parameters<double>& p, double w, double* gradient);

@@ -53,6 +53,11 @@ struct Stribeck {
   static T start(const Parameters<T>& p, const T& w, T&) {
     return stribeck_torque(p, w);
   }
+  // The sliding friction level at velocity w, Nm: g(w).
+  template <class T>
+  static T sliding_level(const Parameters<T>& p, const T& w) {
+    return stribeck_level(p, w);
+  }
   // Friction at constant velocity w, Nm.
   template <class T>
   static T steady(const Parameters<T>& p, const T& w) {
