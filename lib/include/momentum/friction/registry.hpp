@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "momentum/friction/coulomb_viscous.hpp"
+#include "momentum/friction/dahl.hpp"
 #include "momentum/friction/lugre.hpp"
 #include "momentum/friction/parameters.hpp"
 #include "momentum/friction/stribeck.hpp"
@@ -32,6 +33,7 @@
   X(lugre, Lugre)                     \
   X(stribeck, Stribeck)               \
   X(coulomb_viscous, CoulombViscous)  \
+  X(dahl, Dahl)                       \
   /* end of the list */
 
 namespace momentum::friction {
