@@ -274,8 +274,8 @@ TEST(FrictionModel, JsonRoundTripAndErrors) {
     }
     return "";
   };
-  EXPECT_EQ(error_of(R"({"model": "dahl", "joints": []})"),
-            "friction: unknown model \"dahl\" (expected lugre, stribeck or coulomb-viscous)");
+  EXPECT_EQ(error_of(R"({"model": "maxwell-slip", "joints": []})"),
+            "friction: unknown model \"maxwell-slip\" (expected lugre, stribeck, coulomb-viscous or dahl)");
   EXPECT_EQ(error_of(R"({"model": "stribeck", "joints": [{"sigma2": 1, "tau_c": 1, "tau_s": 2}]})"),
             "friction: joint 1: missing 'w_s' (needed by the stribeck model)");
   EXPECT_EQ(error_of(R"({"model": "coulomb-viscous", "joints": [{"sigma2": -1, "tau_c": 1}]})"),

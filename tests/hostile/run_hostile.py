@@ -73,7 +73,7 @@ RECIPES = {
     "mo-can2csv": dict(argv=["--dbc", "{dbc}", "{capture}", "-o", "{out}"], output="-o", stdin="{capture}"),
     "mo-calibrate": dict(argv=["-p", "{profile}", "--signal", "r", "--rest-time", "0.1", "{residual}", "-o", "{out}"],
                          stream="{residual}", output="-o", judges=True),
-    "mo-lugre-fit": dict(argv=["-p", "{profile}", "--population", "8", "--generations", "3", "--restarts", "1",
+    "mo-friction-fit": dict(argv=["-p", "{profile}", "--population", "8", "--generations", "3", "--restarts", "1",
                               "--no-polish", "{residual}", "-o", "{out}"], stream="{residual}", output="-o",
                          judges=True),
     "mo-dynfit": dict(argv=["-p", "{profile}", "--force", "{log}", "-o", "{out}"], stream="{log}", output="-o", judges=True),
@@ -545,7 +545,8 @@ def main():
     args.source = os.path.abspath(args.source)
 
     tools = [t for t in re.split(r"[;,]", args.tools) if t]
-    built = sorted(n for n in os.listdir(args.bin) if n.startswith("mo-"))
+    # Programs, not the links that keep a former name working (mo-lugre-fit -> mo-friction-fit).
+    built = sorted(n for n in os.listdir(args.bin) if n.startswith("mo-") and not os.path.islink(os.path.join(args.bin, n)))
     problems = []
     if sorted(tools) != built:
         problems.append(f"the build's tools {sorted(tools)} are not the programs in {args.bin}: {built}")

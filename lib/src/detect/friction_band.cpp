@@ -1,5 +1,6 @@
 #include "momentum/detect/friction_band.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -17,16 +18,18 @@ FrictionBand::FrictionBand(const friction::FrictionModel& model, double sigmas) 
     J.parameters = model.joints[j];
     if (j < model.covariance.size()) J.covariance = model.covariance[j];
     if (J.covariance) {
-      // Past 6 w_s (exp(-36): nothing of the Stribeck term left) the gradient of |F| is
-      // (tau_c: 1, sigma2: |w|, delta_c: direction), whatever the model; Coulomb-viscous has no
-      // Stribeck term at all.
-      J.fast_from = model.kind == friction::Kind::coulomb_viscous ? 0.0 : 6 * J.parameters.w_s;
+      // Past the speed the model names (LuGre, Stribeck: 6 w_s, where nothing of the Stribeck
+      // term is left) the gradient of |F| is constant + slope |w|: a quadratic in |w| for the
+      // variance, no table.
       const auto& c = *J.covariance;
       const std::size_t n = c.parameters.size();
       for (double direction : {1.0, -1.0}) {
         Quadratic& q = direction > 0 ? J.forward : J.backward;
-        auto constant = [direction](int parameter) { return parameter == 3 ? 1.0 : parameter == 6 ? direction : 0.0; };
-        auto slope = [](int parameter) { return parameter == 2 ? 1.0 : 0.0; };
+        double constant_of[friction::Parameters<double>::kSize], slope_of[friction::Parameters<double>::kSize];
+        const double from = friction::affine_from(model.kind, J.parameters, direction, constant_of, slope_of);
+        J.fast_from = direction > 0 ? from : std::max(J.fast_from, from);
+        auto constant = [&constant_of](int parameter) { return constant_of[parameter]; };
+        auto slope = [&slope_of](int parameter) { return slope_of[parameter]; };
         for (std::size_t a = 0; a < n; ++a)
           for (std::size_t b = 0; b < n; ++b) {
             const int pa = c.parameters[a], pb = c.parameters[b];

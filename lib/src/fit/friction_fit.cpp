@@ -36,14 +36,7 @@ int parameter_index(const std::string& name) {
   return -1;
 }
 
-std::vector<int> model_parameters(Kind kind, bool asymmetric) {
-  switch (kind) {
-    case Kind::lugre: return asymmetric ? std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7} : std::vector<int>{0, 1, 2, 3, 4, 5};
-    case Kind::stribeck: return asymmetric ? std::vector<int>{2, 3, 4, 5, 6, 7} : std::vector<int>{2, 3, 4, 5};
-    case Kind::coulomb_viscous: return asymmetric ? std::vector<int>{2, 3, 6} : std::vector<int>{2, 3};
-  }
-  return {};
-}
+std::vector<int> model_parameters(Kind kind, bool asymmetric) { return friction::used_parameters(kind, asymmetric); }
 
 GeneticOptions quick_search() {
   GeneticOptions o;
@@ -83,18 +76,18 @@ bool FitOptions::IsValid(std::string* why) const {
     for (int i : model_parameters(k, asymmetric)) {
       const auto u = static_cast<std::size_t>(i);
       const std::string name = friction::kParameterNames[i];
-      const bool signed_parameter = i >= 6;
+      const bool signed_parameter = i >= friction::kFirstSignedParameter;
       if (fixed[u]) {
         const double v = *fixed[u];
-        if (!std::isfinite(v) || (v < 0 && !signed_parameter) || (must_be_positive(k, i) && v == 0))
+        if (!std::isfinite(v) || (v < 0 && !signed_parameter) || (friction::must_be_positive(k, i) && v == 0))
           return fail(name + " = " + std::to_string(v) + " is not a valid fixed value");
         continue;
       }
       const double lo = bounds.lower[u], hi = bounds.upper[u];
       if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi))
         return fail(name + ": bounds must be finite with lower < upper");
-      if ((lo < 0 && !signed_parameter) || (must_be_positive(k, i) && lo <= 0))
-        return fail(name + ": lower bound must be " + (must_be_positive(k, i) ? "> 0" : ">= 0"));
+      if ((lo < 0 && !signed_parameter) || (friction::must_be_positive(k, i) && lo <= 0))
+        return fail(name + ": lower bound must be " + (friction::must_be_positive(k, i) ? "> 0" : ">= 0"));
     }
     if (free_parameters(*this, k).empty()) return fail("every parameter is fixed: nothing to fit");
   }

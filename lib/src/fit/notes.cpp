@@ -24,11 +24,11 @@ std::string explain(const Problem& problem, const ModelFit& fit, int i) {
     std::size_t transient = 0;
     for (std::size_t k = 1; k < d.size(); ++k) {
       if (!d.scored[k]) continue;
-      const double g = friction::stribeck_level(p, d.dq[k]);
+      const double g = friction::sliding_level(problem.kind, p, d.dq[k]);
       if (p.sigma0 * std::abs(d.dq[k]) * problem.dt[k] / g < 3.0) ++transient;
     }
     why = "bristle dynamics settle within " +
-          core::significant(friction::stribeck_level(p, 0.0) / p.sigma0, 2) +
+          core::significant(friction::sliding_level(problem.kind, p, 0.0) / p.sigma0, 2) +
           " rad of travel; only " + std::to_string(transient) + " of " +
           std::to_string(fit.metrics.samples) + " samples at " + core::significant(rate, 4) +
           " Hz see them (near velocity reversals)";

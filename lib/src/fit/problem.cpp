@@ -11,14 +11,6 @@ namespace momentum::fit {
 using friction::Kind;
 using Params = friction::Parameters<double>;
 
-// Smallest value a parameter may take for a model: > 0 (strictly) or >= 0.
-bool must_be_positive(Kind kind, int i) {
-  if (i >= 6) return false;  // asymmetries have either sign
-  if (i == 0) return kind == Kind::lugre;
-  if (i == 3) return kind != Kind::coulomb_viscous;
-  return i == 4 || i == 5;  // tau_s, w_s (used only by LuGre and Stribeck)
-}
-
 std::vector<int> free_parameters(const FitOptions& o, Kind kind) {
   std::vector<int> free;
   for (int i : model_parameters(kind, o.asymmetric))
@@ -80,7 +72,7 @@ void Problem::set_unknown_starts(const std::vector<std::size_t>& starts, bool sl
 }
 
 double Problem::cost(const Params& p) const {
-  if (!feasible(kind, p)) return std::numeric_limits<double>::infinity();
+  if (!friction::feasible(kind, p)) return std::numeric_limits<double>::infinity();
   double sum = 0;
   const auto& d = *data;
   if (has_nuisance()) {
@@ -119,7 +111,7 @@ bool jacobian_pass(const Problem& problem, const std::vector<double>& x,
   std::array<J, kParameterCount> v{};
   for (int j = 0; j < N; ++j) v[static_cast<std::size_t>(j)] = J(x[static_cast<std::size_t>(j)], j);
   const auto p = problem.assemble<J>(v.data(), scale.data());
-  if (!feasible(problem.kind, p)) return false;
+  if (!friction::feasible(problem.kind, p)) return false;
   const auto m = static_cast<Eigen::Index>(problem.scored);
   e.resize(m);
   jacobian.resize(m, N);

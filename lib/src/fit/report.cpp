@@ -360,7 +360,7 @@ json merged_friction_section(const json* current, int joints, const std::vector<
     for (int j = 0; j < joints; ++j) section["joints"].push_back(json::object());
   }
   section["model"] = friction::kind_name(kind);
-  if (kind == friction::Kind::lugre && !section.contains("update"))
+  if (friction::has_state(kind) && !section.contains("update"))
     section["update"] = friction::update_name(options.update);
   for (const auto& f : fits) {
     json& entry = section["joints"][static_cast<std::size_t>(f.joint - 1)];

@@ -16,85 +16,9 @@ bool fail(std::string* why, std::string message) {
   return false;
 }
 
-// Parameters each model reads, as indices into the array order.
-std::vector<int> used_parameters(Kind kind) {
-  switch (kind) {
-    case Kind::coulomb_viscous: return {2, 3};
-    case Kind::stribeck: return {2, 3, 4, 5};
-    case Kind::lugre: return {0, 1, 2, 3, 4, 5};
-  }
-  return {};
-}
-
-// Asymmetry parameters a model may carry (optional in the JSON, 0 when absent).
-std::vector<int> asymmetry_parameters(Kind kind) {
-  if (kind == Kind::coulomb_viscous) return {6};
-  return {6, 7};
-}
-
 [[noreturn]] void error(const std::string& message) { throw Error("friction: " + message); }
 
 }  // namespace
-
-const char* kind_name(Kind kind) {
-  switch (kind) {
-    case Kind::coulomb_viscous: return "coulomb-viscous";
-    case Kind::stribeck: return "stribeck";
-    case Kind::lugre: return "lugre";
-  }
-  return "?";
-}
-
-bool parse_kind(const std::string& name, Kind* kind) {
-  if (name == "coulomb-viscous" || name == "coulomb_viscous") *kind = Kind::coulomb_viscous;
-  else if (name == "stribeck") *kind = Kind::stribeck;
-  else if (name == "lugre") *kind = Kind::lugre;
-  else return false;
-  return true;
-}
-
-const char* update_name(LugreUpdate update) {
-  return update == LugreUpdate::exact ? "exact" : "semi-implicit";
-}
-
-bool parse_update(const std::string& name, LugreUpdate* update) {
-  if (name == "exact") *update = LugreUpdate::exact;
-  else if (name == "semi-implicit" || name == "semi_implicit") *update = LugreUpdate::semi_implicit;
-  else return false;
-  return true;
-}
-
-bool IsValid(Kind kind, const Parameters<double>& p, std::string* why) {
-  double x[Parameters<double>::kSize];
-  p.to_array(x);
-  std::vector<int> checked = used_parameters(kind);
-  for (int i : asymmetry_parameters(kind)) checked.push_back(i);
-  for (int i : checked) {
-    if (!std::isfinite(x[i])) return fail(why, std::string(kParameterNames[i]) + " is not finite");
-  }
-  if (p.sigma2 < 0) return fail(why, "sigma2 = " + core::significant(p.sigma2, 17) + " is negative");
-  if (kind == Kind::coulomb_viscous) {
-    if (p.tau_c < 0) return fail(why, "tau_c = " + core::significant(p.tau_c, 17) + " is negative");
-    if (std::abs(p.delta_c) > p.tau_c)
-      return fail(why, "|delta_c| = " + core::significant(std::abs(p.delta_c), 17) + " exceeds tau_c = " + core::significant(p.tau_c, 17) +
-                           " (a negative level in one direction)");
-    return true;
-  }
-  if (!(p.tau_c > 0)) return fail(why, "tau_c = " + core::significant(p.tau_c, 17) + " is not positive");
-  if (!(p.tau_s > 0)) return fail(why, "tau_s = " + core::significant(p.tau_s, 17) + " is not positive");
-  if (!(std::abs(p.delta_c) < p.tau_c))
-    return fail(why, "|delta_c| = " + core::significant(std::abs(p.delta_c), 17) + " is not below tau_c = " + core::significant(p.tau_c, 17) +
-                         " (the level of one direction would not be positive)");
-  if (!(std::abs(p.delta_s) < p.tau_s))
-    return fail(why, "|delta_s| = " + core::significant(std::abs(p.delta_s), 17) + " is not below tau_s = " + core::significant(p.tau_s, 17) +
-                         " (the level of one direction would not be positive)");
-  if (!(p.w_s > 0)) return fail(why, "w_s = " + core::significant(p.w_s, 17) + " is not positive");
-  if (kind == Kind::lugre) {
-    if (!(p.sigma0 > 0)) return fail(why, "sigma0 = " + core::significant(p.sigma0, 17) + " is not positive");
-    if (p.sigma1 < 0) return fail(why, "sigma1 = " + core::significant(p.sigma1, 17) + " is negative");
-  }
-  return true;
-}
 
 bool Options::IsValid(std::string* why) const {
   if (!std::isfinite(velocity_deadband) || velocity_deadband < 0)
@@ -156,27 +80,8 @@ SteadyCovariance covariance_from_json(const nlohmann::json& entry, const std::st
 }  // namespace
 
 double steady_friction_sd(Kind kind, const Parameters<double>& p, const SteadyCovariance& covariance, double w) {
-  // d|F|/d(parameter) for the direction of w (w = 0: the positive side's limit, whose static
-  // level the joint holds at breakaway).
-  const double direction = w < 0 ? -1.0 : 1.0;
-  const double speed = std::abs(w);
-  double gradient[Parameters<double>::kSize] = {};
-  gradient[2] = speed;
-  if (kind == Kind::coulomb_viscous) {
-    gradient[3] = 1;
-    gradient[6] = direction;
-  } else {
-    const double x = speed / p.w_s;
-    // Beyond 6 w_s the Stribeck term is under 1e-15 of the drop: no exp for the many rows at
-    // speed (the detector asks on every row).
-    const double stribeck = x < 6 ? std::exp(-x * x) : 0.0;
-    const double drop = (p.tau_s + direction * p.delta_s) - (p.tau_c + direction * p.delta_c);
-    gradient[3] = 1 - stribeck;
-    gradient[4] = stribeck;
-    gradient[5] = drop * stribeck * 2 * x * x / p.w_s;
-    gradient[6] = direction * (1 - stribeck);
-    gradient[7] = direction * stribeck;
-  }
+  double gradient[Parameters<double>::kSize];
+  steady_gradient(kind, p, w, gradient);
   const std::size_t n = covariance.parameters.size();
   double variance = 0;
   for (std::size_t a = 0; a < n; ++a)
@@ -196,7 +101,7 @@ FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std:
   const auto model_it = section.find("model");
   if (model_it == section.end()) error("missing 'model'");
   if (!model_it->is_string() || !parse_kind(model_it->get<std::string>(), &model.kind))
-    error("unknown model " + model_it->dump() + " (expected lugre, stribeck or coulomb-viscous)");
+    error("unknown model " + model_it->dump() + " (expected " + kind_names_text() + ")");
   if (const auto it = section.find("update"); it != section.end()) {
     if (!it->is_string() || !parse_update(it->get<std::string>(), &model.options.update))
       error("unknown update " + it->dump() + " (expected exact or semi-implicit)");
@@ -215,7 +120,7 @@ FrictionModel friction_from_json(const nlohmann::json& section, std::vector<std:
   const auto joints = section.find("joints");
   if (joints == section.end()) error("missing 'joints'");
   if (!joints->is_array()) error("'joints' is not an array");
-  const std::vector<int> used = used_parameters(model.kind);
+  const std::vector<int> used = used_parameters(model.kind, false);
   for (std::size_t j = 0; j < joints->size(); ++j) {
     const auto& entry = (*joints)[j];
     const std::string where = "joint " + std::to_string(j + 1) + ": ";
@@ -260,11 +165,11 @@ nlohmann::json covariance_to_json(const SteadyCovariance& covariance) {
 nlohmann::json to_json(const FrictionModel& model) {
   nlohmann::json section = nlohmann::json::object();
   section["model"] = kind_name(model.kind);
-  if (model.kind == Kind::lugre) section["update"] = update_name(model.options.update);
+  if (has_state(model.kind)) section["update"] = update_name(model.options.update);
   if (model.options.velocity_deadband != 0) section["velocity_deadband"] = model.options.velocity_deadband;
   if (model.options.velocity_cutoff_hz != 0) section["velocity_cutoff_hz"] = model.options.velocity_cutoff_hz;
   nlohmann::json joints = nlohmann::json::array();
-  const std::vector<int> used = used_parameters(model.kind);
+  const std::vector<int> used = used_parameters(model.kind, false);
   for (const auto& p : model.joints) {
     double x[Parameters<double>::kSize];
     p.to_array(x);

@@ -21,21 +21,8 @@
 
 namespace momentum::fit {
 
-// True when parameter i must be > 0 (not merely >= 0) for model `kind`: sigma0 (LuGre), tau_c
-// (LuGre, Stribeck), tau_s and w_s.
-bool must_be_positive(friction::Kind kind, int i);
-
 // Indices of the parameters of `kind` that `o` leaves free (used by the model, not fixed).
 std::vector<int> free_parameters(const FitOptions& o, friction::Kind kind);
-
-// The levels of both directions are positive (non-negative for Coulomb-viscous): outside this
-// the friction model is meaningless (the LuGre rate would change sign).
-template <class T>
-bool feasible(friction::Kind kind, const friction::Parameters<T>& p) {
-  using std::abs;
-  if (kind == friction::Kind::coulomb_viscous) return !(abs(p.delta_c) > p.tau_c);
-  return abs(p.delta_c) < p.tau_c && abs(p.delta_s) < p.tau_s;
-}
 
 // One model on one joint's data, with everything per sample precomputed: the interval and
 // the observer filter's coefficients (identical consecutive intervals share them).
@@ -145,7 +132,7 @@ struct Residuals {
   template <class T>
   bool operator()(T const* const* x, T* residuals) const {
     const auto p = problem->assemble<T>(x[0], scale.data());
-    if (!feasible(problem->kind, p)) return false;  // Ceres rejects the step
+    if (!friction::feasible(problem->kind, p)) return false;  // Ceres rejects the step
     const auto& d = *problem->data;
     std::size_t m = 0;
     problem->simulate(p, [&](std::size_t k, const T& y, const T&) {

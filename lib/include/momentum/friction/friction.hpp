@@ -5,14 +5,15 @@
 // JointFriction::step, so they agree sample for sample.
 //
 // Profile section (man 5 momentum-profile):
-//   "friction": {"model": "lugre",                 // or "stribeck", "coulomb-viscous"
+//   "friction": {"model": "lugre",                 // or another model of registry.hpp
 //                "update": "exact",                // or "semi-implicit" (LuGre only)
 //                "velocity_deadband": 0.0,         // rad/s, optional
 //                "velocity_cutoff_hz": 0.0,        // Hz, optional, 0 = no low-pass
 //                "joints": [{"sigma0": 98467.9, "sigma1": 314.0, "sigma2": 6.49,
 //                            "tau_c": 7.83, "tau_s": 4.00, "w_s": 0.0978,
 //                            "delta_c": 0.4, "delta_s": 0.2}, ...]}   // optional asymmetry
-// delta_c and delta_s (lugre.hpp) are optional, 0 when absent; Coulomb-viscous reads delta_c.
+// The parameters a joint holds are those its model reads (registry.hpp); delta_c and delta_s
+// (parameters.hpp) are optional, 0 when absent.
 // A joint may carry the covariance its fit reports for the parameters that set the steady-state
 // friction (mo-lugre-fit writes it; absent: unknown):
 //   "covariance": {"parameters": ["sigma2", "tau_c", "tau_s", "w_s"],
@@ -27,7 +28,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "momentum/friction/lugre.hpp"
+#include "momentum/friction/registry.hpp"
 
 namespace momentum::friction {
 
@@ -110,25 +111,17 @@ class JointFriction {
       w_ = w_measured;
     }
     const T w = abs(w_) < T(options_.velocity_deadband) ? T(0) : w_;
-    switch (kind_) {
-      case Kind::coulomb_viscous:
+    return visit(kind_, [&](auto model) {
+      using Model = decltype(model);
+      if (!started_) {
         started_ = true;
-        return coulomb_viscous_torque(p_, w);
-      case Kind::stribeck:
-        started_ = true;
-        return stribeck_torque(p_, w);
-      case Kind::lugre:
-        break;
-    }
-    if (!started_) {
-      started_ = true;
-      z_ = stribeck_level(p_, w) * detail::sign(w) / p_.sigma0;
-      return stribeck_torque(p_, w);
-    }
-    return lugre_step(p_, w, dt, options_.update, z_);
+        return Model::start(p_, w, z_);
+      }
+      return Model::step(p_, w, dt, options_.update, z_);
+    });
   }
 
-  // LuGre bristle deflection after the last step, rad (0 for static models).
+  // The model's state after the last step (LuGre's bristle deflection, rad; 0 for static models).
   const T& z() const { return z_; }
   // The conditioned velocity of the last step (before the deadband), rad/s.
   const T& filtered_velocity() const { return w_; }

@@ -1,7 +1,5 @@
-// Joint friction models, templated on the scalar T (double, or ceres::Jet so that the fitter
-// differentiates through them): Coulomb-viscous, Stribeck (the LuGre steady state) and LuGre
-// with a stable discrete update. One implementation serves the observer, the simulator and the
-// fitter.
+// The LuGre model, one unit (registry.hpp lists it), templated on the scalar T (double, or
+// ceres::Jet so that the fitter differentiates through it), with a stable discrete update.
 //
 // LuGre (Zhang et al. 2020, eq. 12):  tau_f = s0 z + s1 dz/dt + s2 w,
 //   dz/dt = w - s0 |w| z / g(w),   g(w) = tau_c + (tau_s - tau_c) exp(-(w/w_s)^2).
@@ -10,104 +8,18 @@
 // z_ss = g(w) sign(w) / s0 with rate lambda = s0 |w| / g(w); the exact update uses that. The
 // paper's semi-implicit update (eq. 13b) is offered for comparison. Both keep z a convex
 // combination of its previous value and z_ss, so |z| <= max(tau_c, tau_s) / s0 forever once it
-// holds (it holds for z = 0), whatever the velocity sequence and the step.
+// holds (it holds for z = 0), whatever the velocity sequence and the step (bristle_step).
+// Its steady state is the Stribeck model (stribeck.hpp).
 //
 // Units: w rad/s (m/s for prismatic joints), torques Nm (N), z rad, dt s.
 #pragma once
 
-#include <cmath>
 #include <string>
 
+#include "momentum/friction/parameters.hpp"
+#include "momentum/friction/stribeck.hpp"
+
 namespace momentum::friction {
-
-// Eight parameters per joint, in this order everywhere a vector of them is used (fitter, JSON):
-// sigma0, sigma1, sigma2, tau_c, tau_s, w_s, delta_c, delta_s. Static models ignore what they
-// do not use (Stribeck: sigma0, sigma1; Coulomb-viscous: sigma0, sigma1, tau_s, w_s, delta_s).
-//
-// Direction asymmetry (real gearboxes): delta_c and delta_s are half the difference between the
-// levels for positive and for negative velocity, so the Coulomb level is tau_c + delta_c moving
-// forward and tau_c - delta_c moving backward (tau_c is their mean), and likewise tau_s +-
-// delta_s. A constant torque offset o during sliding (a current-sensor bias, a cable pulling one
-// way) is the special case delta_c = delta_s = o. Both default to 0 (symmetric friction), so
-// parameter sets written without them keep their meaning; every model reads the levels through
-// stribeck_level() and coulomb_viscous_torque() only.
-template <class T>
-struct Parameters {
-  T sigma0 = T(0);  // bristle stiffness, Nm/rad, > 0 (LuGre)
-  T sigma1 = T(0);  // bristle (micro) damping, Nm s/rad, >= 0 (LuGre)
-  T sigma2 = T(0);  // viscous coefficient, Nm s/rad, >= 0
-  T tau_c = T(0);   // Coulomb level (mean of both directions), Nm, > 0 (>= 0 for Coulomb-viscous)
-  T tau_s = T(0);   // static (breakaway) level (mean of both directions), Nm, > 0
-  T w_s = T(1);     // Stribeck velocity, rad/s, > 0
-  T delta_c = T(0); // Coulomb asymmetry, Nm, |delta_c| < tau_c (<= for Coulomb-viscous)
-  T delta_s = T(0); // static-level asymmetry, Nm, |delta_s| < tau_s
-
-  static constexpr int kSize = 8;
-
-  // From / to a plain array of kSize values in the order above.
-  static Parameters from_array(const T* x) { return {x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7]}; }
-  void to_array(T* x) const {
-    x[0] = sigma0; x[1] = sigma1; x[2] = sigma2; x[3] = tau_c; x[4] = tau_s; x[5] = w_s;
-    x[6] = delta_c; x[7] = delta_s;
-  }
-  // Converts every parameter to another scalar type (double -> Jet for the fitter).
-  template <class U>
-  Parameters<U> cast() const {
-    return {U(sigma0), U(sigma1), U(sigma2), U(tau_c), U(tau_s), U(w_s), U(delta_c), U(delta_s)};
-  }
-};
-
-// Names of the parameters in array order, as used in the profile's JSON.
-inline constexpr const char* kParameterNames[8] = {"sigma0", "sigma1", "sigma2", "tau_c",
-                                                   "tau_s",  "w_s",    "delta_c", "delta_s"};
-
-// Which model a joint uses.
-enum class Kind { coulomb_viscous, stribeck, lugre };
-
-// How the LuGre bristle state is advanced over one sample interval.
-enum class LugreUpdate {
-  exact,          // exponential relaxation for a velocity constant over the step (default)
-  semi_implicit,  // the paper's eq. 13b (backward Euler in z)
-};
-
-namespace detail {
-template <class T>
-T sign(const T& w) {
-  if (w > T(0)) return T(1);
-  if (w < T(0)) return T(-1);
-  return T(0);
-}
-}  // namespace detail
-
-// The Stribeck level g(w) = c + (s - c) exp(-(w/w_s)^2), Nm, with c = tau_c + sign(w) delta_c
-// and s = tau_s + sign(w) delta_s: the sliding friction magnitude at velocity w. Positive
-// whenever the levels of both directions are (see IsValid()).
-template <class T>
-T stribeck_level(const Parameters<T>& p, const T& w) {
-  using std::exp;
-  const T x = w / p.w_s;
-  const T direction = detail::sign(w);
-  const T c = p.tau_c + direction * p.delta_c;
-  // Past 6 w_s the Stribeck term is under 2.4e-16 of the drop: c alone (no exp for the many
-  // samples at speed; the observer steps this on every row of every joint).
-  if (x * x > T(36)) return c;
-  const T s = p.tau_s + direction * p.delta_s;
-  return c + (s - c) * exp(-x * x);
-}
-
-// Static Stribeck friction, Nm: g(w) sign(w) + sigma2 w (0 at w = 0). This is the LuGre steady
-// state for a constant velocity.
-template <class T>
-T stribeck_torque(const Parameters<T>& p, const T& w) {
-  return stribeck_level(p, w) * detail::sign(w) + p.sigma2 * w;
-}
-
-// Coulomb-viscous friction, Nm: (tau_c + sign(w) delta_c) sign(w) + sigma2 w (0 at w = 0).
-template <class T>
-T coulomb_viscous_torque(const Parameters<T>& p, const T& w) {
-  const T direction = detail::sign(w);
-  return (p.tau_c + direction * p.delta_c) * direction + p.sigma2 * w;
-}
 
 // Advances the LuGre bristle state z (rad) over a step of dt seconds (>= 0) during which the
 // velocity is w, and returns the friction torque at the end of the step, Nm:
@@ -115,47 +27,66 @@ T coulomb_viscous_torque(const Parameters<T>& p, const T& w) {
 // Requires sigma0 > 0 and g(w) > 0 (see IsValid()); no other failure case.
 template <class T>
 T lugre_step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, T& z) {
-  using std::abs;
-  using std::exp;
-  const T rate = p.sigma0 * abs(w) / stribeck_level(p, w);  // lambda, 1/s
-  T dz;
-  if (update == LugreUpdate::exact) {
-    // z(dt) = z e^{-x} + w dt (1 - e^{-x}) / x with x = lambda dt; dz/dt(dt) = (w - lambda z) e^{-x}.
-    // One expm1 gives both e^{-x} (absolute error ~1e-16, which is what z needs) and an accurate
-    // (1 - e^{-x}) / x; a series takes over near x = 0 so that Jets keep their derivatives.
-    const T x = rate * dt;
-    T decay, relaxed;
-    if (x < T(1e-4)) {
-      decay = T(1) - x * (T(1) - x * (T(0.5) - x * T(1.0 / 6)));
-      relaxed = T(1) - x * (T(0.5) - x * (T(1.0 / 6) - x * T(1.0 / 24)));
-    } else {
-      using std::expm1;
-      const T m = expm1(-x);
-      decay = T(1) + m;
-      relaxed = -m / x;
-    }
-    dz = (w - rate * z) * decay;
-    z = z * decay + w * dt * relaxed;
-  } else {
-    dz = (w - rate * z) / (T(1) + rate * dt);
-    z = z + dz * dt;
-  }
+  const T dz = bristle_step(p.sigma0, stribeck_level(p, w), w, dt, update, z);
   return p.sigma0 * z + p.sigma1 * dz + p.sigma2 * w;
 }
 
-// Checks a parameter set for a model: finite numbers; sigma0 > 0 and sigma1 >= 0 for LuGre;
-// tau_c > |delta_c|, tau_s > |delta_s|, w_s > 0 for LuGre and Stribeck (levels positive in both
-// directions); tau_c >= |delta_c| for Coulomb-viscous; sigma2 >= 0 always. Returns false with
-// the reason in `why` (when non-null).
-bool IsValid(Kind kind, const Parameters<double>& p, std::string* why);
+struct Lugre {
+  // Its name in the profile's JSON and for --model, and another spelling accepted (none).
+  static constexpr const char* kName = "lugre";
+  static constexpr const char* kAlias = "";
+  // The parameters it reads (array order: parameters.hpp), then the optional asymmetry ones.
+  static constexpr int kParameters[] = {0, 1, 2, 3, 4, 5};  // sigma0, sigma1, sigma2, tau_c, tau_s, w_s
+  static constexpr int kAsymmetry[] = {6, 7};               // delta_c, delta_s
+  // A bristle state advanced by the profile's "update".
+  static constexpr bool kHasState = true;
 
-// "coulomb-viscous", "stribeck", "lugre".
-const char* kind_name(Kind kind);
-// Inverse of kind_name (also accepts "coulomb_viscous"); false when unknown.
-bool parse_kind(const std::string& name, Kind* kind);
-// "exact", "semi-implicit".
-const char* update_name(LugreUpdate update);
-// Inverse of update_name (also accepts "semi_implicit"); false when unknown.
-bool parse_update(const std::string& name, LugreUpdate* update);
+  // True when parameter i must be > 0, not merely >= 0: sigma0, tau_c, tau_s, w_s.
+  static constexpr bool must_be_positive(int i) { return i == 0 || Stribeck::must_be_positive(i); }
+
+  // Both directions' levels positive: outside this the rate would change sign.
+  template <class T>
+  static bool feasible(const Parameters<T>& p) {
+    return Stribeck::feasible(p);
+  }
+
+  // Finite parameters, the Stribeck checks (sigma2 >= 0, levels positive in both directions,
+  // w_s > 0), sigma0 > 0, sigma1 >= 0; false with the reason in `why` (when non-null).
+  static bool IsValid(const Parameters<double>& p, std::string* why) {
+    return check::finite(p, std::begin(kParameters), std::end(kParameters), why) &&
+           check::finite(p, std::begin(kAsymmetry), std::end(kAsymmetry), why) && Stribeck::levels_valid(p, why) &&
+           check::positive(p, 0, why) && check::not_negative(p, 1, why);
+  }
+
+  // The torque after dt seconds at velocity w, Nm, advancing z (lugre_step).
+  template <class T>
+  static T step(const Parameters<T>& p, const T& w, double dt, LugreUpdate update, T& z) {
+    return lugre_step(p, w, dt, update, z);
+  }
+  // The first sample: the steady state for that velocity (z = g(w) sign(w) / s0), so that a log
+  // that starts in motion has no start-up transient.
+  template <class T>
+  static T start(const Parameters<T>& p, const T& w, T& z) {
+    z = stribeck_level(p, w) * detail::sign(w) / p.sigma0;
+    return stribeck_torque(p, w);
+  }
+  // The sliding friction level at velocity w, Nm: g(w), which the bristles saturate at.
+  template <class T>
+  static T sliding_level(const Parameters<T>& p, const T& w) {
+    return stribeck_level(p, w);
+  }
+  // Friction at constant velocity w, Nm: the Stribeck curve.
+  template <class T>
+  static T steady(const Parameters<T>& p, const T& w) {
+    return stribeck_torque(p, w);
+  }
+  // The steady state's parameter gradient and where it becomes affine: Stribeck's.
+  static void steady_gradient(const Parameters<double>& p, double w, double* gradient) {
+    Stribeck::steady_gradient(p, w, gradient);
+  }
+  static double affine_from(const Parameters<double>& p, double direction, double* constant, double* slope) {
+    return Stribeck::affine_from(p, direction, constant, slope);
+  }
+};
 
 }  // namespace momentum::friction

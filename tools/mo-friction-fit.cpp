@@ -1,7 +1,10 @@
-// mo-lugre-fit: identify each joint's friction (LuGre, Stribeck or Coulomb-viscous) from the
-// observer's residual on collision-free motion, through the observer's own filter; write it into
-// the robot profile and report what the data say about every parameter.
+// mo-friction-fit: identify each joint's friction (any model of friction/registry.hpp: LuGre by
+// default) from the observer's residual on collision-free motion, through the observer's own
+// filter; write it into the robot profile and report what the data say about every parameter.
+// Also installed as mo-lugre-fit, its former name: called by that name it names itself so in
+// its messages, help and version, so that what scripts written for it see does not change.
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -15,8 +18,11 @@
 using namespace momentum;
 
 int main(int argc, char** argv) {
-  cli::Tool tool("mo-lugre-fit", "Identify joint friction from the observer's residual of collision-free motion.");
-  tool.app().footer("\nExample:\n  mo-lugre-fit -p arm.json -o fitted.json observed.csv\n\nMore: man mo-lugre-fit");
+  const char* called = argc > 0 ? std::strrchr(argv[0], '/') : nullptr;
+  called = called ? called + 1 : argc > 0 ? argv[0] : "";
+  const std::string name = std::strcmp(called, "mo-lugre-fit") == 0 ? "mo-lugre-fit" : "mo-friction-fit";
+  cli::Tool tool(name, "Identify joint friction from the observer's residual of collision-free motion.");
+  tool.app().footer("\nExample:\n  " + name + " -p arm.json -o fitted.json observed.csv\n\nMore: man mo-friction-fit");
   tool.add_stream_inputs("observed streams (t, dq<j>, r<j>) of collision-free motion; - or none: stdin");
   tool.add_profile(true);
   tool.add_strict();
@@ -33,7 +39,7 @@ int main(int argc, char** argv) {
   app.add_option("-o,--output", output, "write the updated profile to FILE instead (- for stdout)")->type_name("FILE");
   app.add_flag("--force", o.force, "write even when the fit is worse than the profile's current friction");
   app.add_option("--report", report_path, "write the JSON report to FILE (- for stdout)")->type_name("FILE");
-  app.add_option("--model", model_name, "lugre (default), stribeck or coulomb-viscous")->type_name("MODEL");
+  app.add_option("--model", model_name, friction::kind_names_text(" (default)"))->type_name("MODEL");
   app.add_option("--joints", joints_text, "joints to fit, e.g. 1,3 (default: every joint in the stream)")->type_name("LIST");
   app.add_option("--skip", o.select.skip, "seconds at the start of each log that do not count")->type_name("SECONDS");
   app.add_option("--window", o.window_text, "count only samples with A <= t <= B (stream time)")->type_name("A:B");
