@@ -1,5 +1,5 @@
 // mo-dynfit's cost per sample: the UR5 reference motion (tests/data/ur5.traj.csv, 8 s at 1 kHz,
-// repeated with time going on) streamed into a dynfit::Identifier with mo-dynfit's defaults
+// repeated with time going on) streamed into a inertia::Identifier with mo-dynfit's defaults
 // (K = 10 1/s, min speed 0.2 rad/s, torque held, 20 rows per time constant, the friction probe),
 // items = samples. The velocity-noise copies run over a log's first 600 s only, so a day's
 // cost per sample is that of the fit and its probe: they are left out here (draws 0). Arg:
@@ -12,7 +12,7 @@
 
 #include <Eigen/Core>
 
-#include "momentum/dynfit/identify.hpp"
+#include "momentum/inertia/identify.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/reader.hpp"
@@ -49,13 +49,13 @@ void BM_IdentifierPerSample(benchmark::State& state) {
   namespace mm = momentum::model;
   const mm::Model model = mm::build_model(mm::load_profile(std::string(MOMENTUM_TEST_DATA) + "/ur5.json"));
   const Motion m = load_motion();
-  momentum::dynfit::IdentifyOptions options;
+  momentum::inertia::IdentifyOptions options;
   options.filter_gain = 10.0;
   options.min_speed = 0.2;
   options.torque_held = true;
   options.velocity_noise_draws = 0;
   options.threads = static_cast<int>(state.range(0));
-  momentum::dynfit::Identifier identifier(model, options);
+  momentum::inertia::Identifier identifier(model, options);
   std::size_t k = 0;
   double offset = 0;
   for (auto _ : state) {

@@ -2,7 +2,7 @@
 // paper's motion on the paper's arm (mo-sim's plant with the Table 1 friction, default sensor
 // noise, observed by the profile's second-order observer), fitted with
 //   paper    the paper's full GA (population 200, 300 generations, one run), no polish;
-//   default  mo-lugre-fit's default: a short GA (fit::quick_search) and the Ceres polish.
+//   default  mo-lugre-fit's default: a short GA (friction_fit::quick_search) and the Ceres polish.
 // One joint, and the three joints together on two threads. Counters: evaluations (cost
 // function runs over the 1251 samples, Ceres Jacobian runs included) and the final cost
 // 1/2 sum e^2 summed over the joints; "paper cost" is the full GA's (same seed), so the
@@ -17,18 +17,18 @@
 #include <string>
 #include <vector>
 
-#include "momentum/fit/friction_fit.hpp"
+#include "momentum/friction_fit/friction_fit.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/observer/observer.hpp"
 #include "momentum/sim/run.hpp"
 
-namespace fit = momentum::fit;
+namespace friction_fit = momentum::friction_fit;
 
 namespace {
 
 struct Data {
-  std::vector<fit::JointSeries> series;
+  std::vector<friction_fit::JointSeries> series;
   std::vector<momentum::observer::Gains> gains;
 };
 
@@ -70,29 +70,29 @@ const Data& paper_data() {
   return data;
 }
 
-fit::FitOptions options(bool paper, bool with_static) {
-  fit::FitOptions o;
+friction_fit::FitOptions options(bool paper, bool with_static) {
+  friction_fit::FitOptions o;
   o.compare_static = with_static;
   if (paper) {
-    o.global.genetic = fit::GeneticOptions{};  // 200 x 300, one run
+    o.global.genetic = friction_fit::GeneticOptions{};  // 200 x 300, one run
     o.polish.enabled = false;
   } else {
-    o.global.genetic = fit::quick_search();
+    o.global.genetic = friction_fit::quick_search();
   }
   return o;
 }
 
-double total_cost(const std::vector<fit::JointFit>& fits) {
+double total_cost(const std::vector<friction_fit::JointFit>& fits) {
   double c = 0;
   for (const auto& f : fits) c += f.model.metrics.cost;
   return c;
 }
 
-std::vector<fit::JointFit> run(bool paper, int joints, int threads, bool with_static = false) {
+std::vector<friction_fit::JointFit> run(bool paper, int joints, int threads, bool with_static = false) {
   const Data& d = paper_data();
-  std::vector<fit::JointSeries> series(d.series.begin(), d.series.begin() + joints);
+  std::vector<friction_fit::JointSeries> series(d.series.begin(), d.series.begin() + joints);
   std::vector<momentum::observer::Gains> gains(d.gains.begin(), d.gains.begin() + joints);
-  return fit::fit_joints(series, gains, options(paper, with_static), threads);
+  return friction_fit::fit_joints(series, gains, options(paper, with_static), threads);
 }
 
 // Arguments: method (0 paper GA, 1 default, 2 default with the static Stribeck comparison, as
@@ -103,7 +103,7 @@ void BM_Fit(benchmark::State& state) {
   const int joints = static_cast<int>(state.range(1));
   const int threads = joints == 1 ? 1 : 2;
   (void)paper_data();
-  std::vector<fit::JointFit> fits;
+  std::vector<friction_fit::JointFit> fits;
   const std::clock_t cpu_start = std::clock();
   for (auto _ : state) fits = run(paper, joints, threads, with_static);
   const double cpu = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
@@ -128,13 +128,13 @@ BENCHMARK(BM_Fit)->Args({0, 1})->Args({1, 1})->Args({0, 3})->Args({1, 3})->Args(
 void BM_FitPerSample(benchmark::State& state) {
   const Data& d = paper_data();
   const auto wanted = static_cast<std::size_t>(state.range(0));
-  fit::JointSeries series;
-  while (series.size() < wanted) fit::append_series(series, d.series.front());
-  std::vector<fit::JointSeries> data{series};
+  friction_fit::JointSeries series;
+  while (series.size() < wanted) friction_fit::append_series(series, d.series.front());
+  std::vector<friction_fit::JointSeries> data{series};
   std::vector<momentum::observer::Gains> gains{d.gains.front()};
-  std::vector<fit::JointFit> fits;
+  std::vector<friction_fit::JointFit> fits;
   const std::clock_t cpu_start = std::clock();
-  for (auto _ : state) fits = fit::fit_joints(data, gains, options(false, false), 1);
+  for (auto _ : state) fits = friction_fit::fit_joints(data, gains, options(false, false), 1);
   const double cpu = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
   const auto samples = static_cast<double>(fits.front().model.metrics.samples);
   state.counters["samples"] = samples;

@@ -7,10 +7,10 @@
 
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/sim/run.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace {
 

@@ -43,7 +43,7 @@ phase "python package"
 if [[ ${MOMENTUM_FULL_SANITIZE:-1} == 1 ]]; then
   # The unit tests of the stages that read outside input or judge it (core to detect, and the
   # drivers that run them over streams); those
-  # of the numerical stages (friction, fit, contact, sim, eval, dynfit: 470 of the 900 CPU
+  # of the numerical stages (friction, friction_fit, contact, sim, eval, inertia: 470 of the 900 CPU
   # seconds the sanitized unit tests take to compile) are left to the normal build, and their
   # code runs sanitized through the tools in the golden cases and the hostile test.
   sanitize_stages="core;stream;cli;can;model;observer;detect;calibrate;drivers"

@@ -5,10 +5,10 @@
 #include <optional>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
 #include "momentum/drivers/calibrate_streams.hpp"
 #include "momentum/drivers/learn_classes.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum;
 

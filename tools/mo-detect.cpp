@@ -8,9 +8,9 @@
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/contact/event_contact.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/drivers/stream_detector.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum;
 

@@ -5,12 +5,12 @@
 #include <cstdio>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
-#include "momentum/dynfit/report.hpp"
-#include "momentum/dynfit/run.hpp"
+#include "momentum/inertia/report.hpp"
+#include "momentum/fit_drivers/inertia_run.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum;
 
@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
   tool.add_payload();
   tool.add_seed();
   auto& app = tool.app();
-  dynfit::RunOptions options;
+  drivers::InertiaRunOptions options;
   std::string output, report_path;
   bool update = false, no_friction = false;
   double filter_gain = 0;
@@ -90,10 +90,11 @@ int main(int argc, char** argv) {
     if (!options.IsValid(&why)) throw cli::UsageError(why);
     std::vector<std::string> inputs = tool.inputs();
     if (inputs.empty()) inputs.push_back("-");
-    dynfit::RunResult result = dynfit::run(profile, inputs, options, [&](const std::string& path) { return tool.open_input(path); });
+    drivers::InertiaRunResult result = drivers::run_inertia_fit(
+        profile, inputs, options, [&](const std::string& path) { return tool.open_input(path); });
     result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!tool.quiet()) std::fputs(dynfit::report_text(result.report).c_str(), stderr);
-    if (!report_path.empty()) core::write_document(report_path, dynfit::report_json(result.report).dump(2) + "\n");
+    if (!tool.quiet()) std::fputs(inertia::report_text(result.report).c_str(), stderr);
+    if (!report_path.empty()) core::write_document(report_path, inertia::report_json(result.report).dump(2) + "\n");
     if (!result.failure.empty()) throw Error(result.failure);
     return cli::kSuccess;
   });

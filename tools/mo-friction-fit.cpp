@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
-#include "momentum/fit/friction_fit.hpp"
-#include "momentum/fit/profile_fit.hpp"
-#include "momentum/fit/report.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/friction_fit/friction_fit.hpp"
+#include "momentum/fit_drivers/profile_fit.hpp"
+#include "momentum/friction_fit/report.hpp"
 
 using namespace momentum;
 
@@ -28,10 +28,10 @@ int main(int argc, char** argv) {
   tool.add_strict();
   tool.add_seed();
   auto& app = tool.app();
-  fit::ProfileFitOptions o;  // what the options do not set: from the profile and the data
-  fit::FitOptions& options = o.identify.fit;
+  drivers::ProfileFitOptions o;  // what the options do not set: from the profile and the data
+  friction_fit::FitOptions& options = o.identify.fit;
   auto& ga = options.global.genetic;
-  ga = fit::quick_search();
+  ga = friction_fit::quick_search();
   std::string output, report_path, model_name = "lugre", joints_text, method_name = "ga";
   std::string bounds_text, fix_text, min_speed_text = "auto";
   bool update = false, paper = false, no_polish = false, no_static = false, paper_bounds = false;
@@ -74,7 +74,7 @@ int main(int argc, char** argv) {
   return tool.run(argc, argv, [&] {
     if (update && !output.empty()) throw cli::UsageError("--update and -o are exclusive");
     if (!friction::parse_kind(model_name, &options.kind)) throw cli::UsageError("--model: unknown model '" + model_name + "'");
-    if (!fit::parse_method(method_name, &options.global.method))
+    if (!friction_fit::parse_method(method_name, &options.global.method))
       throw cli::UsageError("--global: unknown method '" + method_name + "'");
     if (paper) {  // the paper's GA, but for what was given explicitly
       if (!app.count("--population")) ga.population = 200;
@@ -90,25 +90,25 @@ int main(int argc, char** argv) {
     o.destination = update ? o.profile : output;
     o.inputs = tool.inputs();
     try {
-      fit::parse_bounds(bounds_text, "--bounds", options.bounds, o.identify.user_bounds);
-      fit::parse_fixed(fix_text, "--fix", options.fixed);
-      o.select.joints = fit::parse_joints(joints_text, "--joints");
-      fit::parse_window(o.window_text, "--window", o.select);
-      if (min_speed_text != "auto") o.min_speed = fit::parse_option_number(min_speed_text, "--min-speed");
+      drivers::parse_bounds(bounds_text, "--bounds", options.bounds, o.identify.user_bounds);
+      drivers::parse_fixed(fix_text, "--fix", options.fixed);
+      o.select.joints = drivers::parse_joints(joints_text, "--joints");
+      drivers::parse_window(o.window_text, "--window", o.select);
+      if (min_speed_text != "auto") o.min_speed = drivers::parse_option_number(min_speed_text, "--min-speed");
       // A profile write (--update or -o FILE) holds the written file's lock from the read to
       // the write, so that a concurrent run's section is not lost.
       const auto lock = !o.destination.empty() && !core::is_standard_output(o.destination)
                             ? cli::lock_for_update(o.destination)
                             : nullptr;
       cli::Progress progress(tool.show_progress());
-      const auto summary = fit::fit_profile_friction(
+      const auto summary = drivers::fit_profile_friction(
           o, [&](const std::string& path) { return tool.open_input(path); },
           [&](const std::string& line) { line.empty() ? progress.finish() : progress.update(line); });
-      if (!tool.quiet()) std::fputs(fit::report_text(summary.report).c_str(), stderr);
-      if (!report_path.empty()) core::write_document(report_path, fit::report_json(summary.report).dump(2) + "\n");
+      if (!tool.quiet()) std::fputs(friction_fit::report_text(summary.report).c_str(), stderr);
+      if (!report_path.empty()) core::write_document(report_path, friction_fit::report_json(summary.report).dump(2) + "\n");
       if (!summary.failure.empty()) throw Error(summary.failure);
       return cli::kSuccess;
-    } catch (const fit::OptionError& e) {
+    } catch (const drivers::OptionError& e) {
       throw cli::UsageError(e.what());
     }
   });

@@ -7,13 +7,13 @@
 #include <string>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/model/describe.hpp"
 #include "momentum/model/inertial_corrections.hpp"
 #include "momentum/model/log_check.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/model_stream.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum;
 

@@ -9,12 +9,12 @@
 #include <string>
 
 #include "momentum/cli/tool.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
+#include "momentum/drivers/observe_stream.hpp"
 #include "momentum/friction/friction.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/drivers/observe_stream.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum;
 

@@ -5,9 +5,9 @@
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/cli/whole_number.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/drivers/plot_stream.hpp"
 #include "momentum/eval/truth.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum;
 

@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "momentum/core/number.hpp"
 #include "momentum/calibrate/calibration.hpp"
+#include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
 #include "momentum/detect/detector.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
 using namespace momentum::calibrate;

@@ -8,7 +8,7 @@
 
 #include "momentum/can/asc.hpp"
 #include "momentum/can/candump.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 using namespace momentum::can;
 

@@ -12,7 +12,7 @@
 #include "momentum/can/capture.hpp"
 #include "momentum/can/codec.hpp"
 #include "momentum/can/cycle.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace fs = std::filesystem;
 using namespace momentum::can;

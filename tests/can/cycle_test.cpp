@@ -8,7 +8,7 @@
 
 #include "momentum/can/codec.hpp"
 #include "momentum/can/cycle.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 using namespace momentum::can;
 

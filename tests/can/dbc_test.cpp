@@ -7,7 +7,7 @@
 
 #include "momentum/can/codec.hpp"
 #include "momentum/can/dbc.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 using namespace momentum::can;
 

@@ -10,7 +10,7 @@
 
 #include "momentum/can/dbc.hpp"
 #include "momentum/can/signal_rows.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 using namespace momentum::can;
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "momentum/can/socketcan.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 using namespace momentum::can;
 

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/detect/events.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
 

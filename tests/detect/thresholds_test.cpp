@@ -1,8 +1,8 @@
 // The profile's "thresholds" section: round trip, other sections untouched, validation.
 #include <gtest/gtest.h>
 
+#include "momentum/core/error.hpp"
 #include "momentum/detect/thresholds.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
 

@@ -15,8 +15,8 @@
 #include <sstream>
 #include <thread>
 
+#include "momentum/core/error.hpp"
 #include "momentum/drivers/live.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
 using namespace momentum::drivers;

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "momentum/core/error.hpp"
 #include "momentum/drivers/stream_detector.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum::detect;
 using namespace momentum::drivers;

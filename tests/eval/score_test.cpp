@@ -8,8 +8,8 @@
 #include <fstream>
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/eval/score.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::eval {
 namespace {

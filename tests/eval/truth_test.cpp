@@ -9,8 +9,8 @@
 #include <fstream>
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/eval/truth.hpp"
-#include "momentum/stream/error.hpp"
 
 using namespace momentum::eval;
 

@@ -20,11 +20,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "momentum/core/error.hpp"
 #include "momentum/detect/thresholds.hpp"
 #include "momentum/friction/friction.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/model/profile_text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace {
 

@@ -26,7 +26,7 @@
 #include <string_view>
 #include <vector>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/writer.hpp"
 

@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/stream/error.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string input(reinterpret_cast<const char*>(data), size);

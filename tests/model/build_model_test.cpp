@@ -11,8 +11,8 @@
 
 #include <Eigen/Geometry>
 
+#include "momentum/core/error.hpp"
 #include "momentum/model/model.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace {
 

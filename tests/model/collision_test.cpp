@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "momentum/core/error.hpp"
 #include "momentum/model/collision.hpp"
 #include "momentum/model/model.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace {
 

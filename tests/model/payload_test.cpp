@@ -10,9 +10,9 @@
 #include <random>
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace {
 

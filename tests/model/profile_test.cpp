@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "momentum/core/error.hpp"
 #include "momentum/model/profile.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/version.hpp"
 
 namespace {

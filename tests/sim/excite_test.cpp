@@ -9,7 +9,7 @@
 
 #include <Eigen/Dense>
 
-#include "momentum/dynfit/regressor.hpp"
+#include "momentum/inertia/regressor.hpp"
 #include "momentum/sim/trajectory.hpp"
 #include "paper_arm.hpp"
 
@@ -25,9 +25,9 @@ Eigen::MatrixXd torque_regressor(const model::Model& m, model::Data& data, const
   const double h = 1e-5;
   Eigen::MatrixXd Yp1, Yp0, Yp, Yb;
   const Eigen::VectorXd q1 = q + h * dq, dq1 = dq + h * ddq, q0 = q - h * dq, dq0 = dq - h * ddq;
-  dynfit::momentum_regressor<double>(m, data, q1, dq1, Yp1, Yb);
-  dynfit::momentum_regressor<double>(m, data, q0, dq0, Yp0, Yb);
-  dynfit::momentum_regressor<double>(m, data, q, dq, Yp, Yb);
+  inertia::momentum_regressor<double>(m, data, q1, dq1, Yp1, Yb);
+  inertia::momentum_regressor<double>(m, data, q0, dq0, Yp0, Yb);
+  inertia::momentum_regressor<double>(m, data, q, dq, Yp, Yb);
   return (Yp1 - Yp0) / (2 * h) + Yb;
 }
 

@@ -7,7 +7,7 @@
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/sim/run.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::sim::testing {
 

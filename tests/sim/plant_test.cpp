@@ -9,7 +9,7 @@
 #include "momentum/friction/lugre.hpp"
 #include "momentum/model/dynamics.hpp"
 #include "momentum/sim/plant.hpp"
-#include "momentum/sim/random.hpp"
+#include "momentum/core/random.hpp"
 #include "paper_arm.hpp"
 
 namespace momentum::sim {
@@ -167,7 +167,7 @@ TEST(Plant, FiniteDifferencesOfTheMotionGiveTheAppliedTorque) {
 TEST(Contacts, JointTorquesAreTheVirtualWorkOfTheForce) {
   Arm arm = testing::paper_arm();
   model::Data data(arm.model);
-  Random random(7);
+  momentum::core::Random random(7);
   ContactOptions options;
   for (int trial = 0; trial < 20; ++trial) {
     Contact c;
@@ -221,7 +221,7 @@ TEST(Friction, LugreSteadyStateIsStribeckAndStaysBoundedAtThePapersStep) {
           << "w = " << w;
     }
     friction::JointFriction<double> f(model.kind, p, model.options);
-    Random random(3);
+    momentum::core::Random random(3);
     const double bound = std::max(p.tau_c, p.tau_s) / p.sigma0;
     const double torque_bound = std::max(p.tau_c, p.tau_s) + p.sigma1 * 2 * 3.0 + p.sigma2 * 3.0;
     for (int k = 0; k < 20000; ++k) {

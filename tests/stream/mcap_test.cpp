@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/stream/joint_state.hpp"
 #include "momentum/stream/mcap.hpp"
 #include "momentum/stream/reader.hpp"

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/rename.hpp"
 

@@ -15,8 +15,8 @@
 #include <random>
 #include <sstream>
 
+#include "momentum/core/error.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/stats.hpp"
 #include "momentum/stream/writer.hpp"

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/stream/reader.hpp"
 #include "momentum/stream/time_order.hpp"
 

@@ -7,8 +7,8 @@
 #include <limits>
 #include <string_view>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::calibrate {
 

@@ -5,7 +5,7 @@
 
 #include "momentum/can/candump.hpp"
 #include "momentum/can/codec.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::can {
 

@@ -9,9 +9,9 @@
 #include <map>
 #include <sstream>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::can {
 

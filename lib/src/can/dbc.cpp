@@ -10,8 +10,8 @@
 #include <map>
 #include <sstream>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::can {
 

@@ -4,8 +4,8 @@
 #include <charconv>
 #include <cstring>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::can {
 

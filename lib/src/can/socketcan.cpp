@@ -11,7 +11,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 #ifndef SO_RXQ_OVFL
 #define SO_RXQ_OVFL 40

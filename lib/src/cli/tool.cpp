@@ -10,8 +10,8 @@
 #include <cstring>
 #include <iostream>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/version.hpp"
 
 namespace momentum::cli {

@@ -3,7 +3,6 @@
 #include <cstdio>
 #include <utility>
 
-#include "momentum/core/number.hpp"
 
 namespace momentum {
 namespace {
@@ -44,6 +43,5 @@ std::string located(std::string_view file, std::uint64_t line, std::string_view 
   return out;
 }
 
-std::string short_number(double x) { return core::short_number(x); }
 
 }  // namespace momentum

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::detect {
 

@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <string_view>
 
+#include "momentum/core/error.hpp"
 #include "momentum/model/json_number.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::detect {
 

@@ -4,9 +4,8 @@
 #include <cmath>
 #include <string>
 
-#include "momentum/core/number.hpp"
 #include "momentum/core/error.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/number.hpp"
 
 namespace momentum::detect {
 

@@ -2,9 +2,9 @@
 
 #include <cmath>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::detect {
 

@@ -1,15 +1,15 @@
-#include "momentum/drivers/calibrate_streams.hpp"
 #include "momentum/calibrate/calibration_json.hpp"
+#include "momentum/drivers/calibrate_streams.hpp"
 
 #include <cmath>
 #include <cstdio>
 #include <optional>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
 #include "momentum/detect/events_json.hpp"
 #include "momentum/model/json_number.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/non_finite.hpp"
 
 namespace momentum::drivers {

@@ -13,8 +13,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/stream/error.hpp"
 
 extern char** environ;
 

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 
 namespace momentum::drivers {
@@ -246,12 +246,12 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       case SampleStatus::restarted_after_gap:
         ++summary.restarts;
         warn(here() + ": observer restarted at t=" + exact(t) + " after a gap of " +
-             short_number(observer_.last_gap()) + " s (median dt " +
-             short_number(observer_.median_dt()) + " s)" +
+             core::short_number(observer_.last_gap()) + " s (median dt " +
+             core::short_number(observer_.median_dt()) + " s)" +
              (after_left_out ? std::string(" across rows left out") : std::string()) +
              (observer_.last_gap_mismatched()
                   ? ": joint " + std::to_string(observer_.mismatch_joint() + 1) +
-                        "'s position moved " + short_number(observer_.mismatch()) +
+                        "'s position moved " + core::short_number(observer_.mismatch()) +
                         " away from its integrated velocity"
                   : std::string()));
         break;
@@ -495,13 +495,13 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     // Gaps within the log's own jitter are its ordinary timing, bridged without a word.
     const std::uint64_t gaps = summary.unusual_gaps;
     warn(std::to_string(gaps) + " gap" + (gaps == 1 ? "" : "s") + " bridged without a restart (longest " +
-         short_number(summary.longest_bridge) + " s, " + core::significant(jitter.longest_unusual(), 3) +
+         core::short_number(summary.longest_bridge) + " s, " + core::significant(jitter.longest_unusual(), 3) +
          " median steps; the log's steps otherwise spread by " + core::fixed(100 * jitter.sigma(), 1) +
          "%): samples were lost");
   }
   if (summary.flagged_rows) {
     std::string times;
-    for (double when : summary.flagged_times) times += (times.empty() ? "" : ", ") + short_number(when);
+    for (double when : summary.flagged_times) times += (times.empty() ? "" : ", ") + core::short_number(when);
     if (summary.flagged_stretches > summary.flagged_times.size()) times += ", ...";
     warn(std::to_string(summary.flagged_rows) + " row" + (summary.flagged_rows == 1 ? "" : "s") +
          " left out because their signals disagree, in " + std::to_string(summary.flagged_stretches) +

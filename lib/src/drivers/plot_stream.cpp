@@ -2,10 +2,10 @@
 
 #include <cmath>
 
+#include "momentum/core/error.hpp"
 #include "momentum/eval/score.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::drivers {
 
@@ -91,7 +91,7 @@ std::string stream_plot_script(stream::Reader& in, const PlotColumns& c,
       // The stream's time policy kept this row as the start of a new time line: the time
       // axis goes on from the last row instead of drawing over earlier rows.
       shift = t_prev + step - row[c.time];
-      in.warn_clock_step("the plot shifts the rows from here by " + short_number(shift) + " s");
+      in.warn_clock_step("the plot shifts the rows from here by " + core::short_number(shift) + " s");
     }
     const double t = row[c.time] + shift;
     if (!in.follows_in_time(t, t_prev)) continue;

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/reader.hpp"
 

@@ -5,16 +5,11 @@
 #include <set>
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::friction {
 namespace {
-
-bool fail(std::string* why, std::string message) {
-  if (why) *why = std::move(message);
-  return false;
-}
 
 [[noreturn]] void error(const std::string& message) { throw Error("friction: " + message); }
 
@@ -22,20 +17,20 @@ bool fail(std::string* why, std::string message) {
 
 bool Options::IsValid(std::string* why) const {
   if (!std::isfinite(velocity_deadband) || velocity_deadband < 0)
-    return fail(why, "velocity_deadband = " + core::significant(velocity_deadband, 17) + " is not a finite value >= 0");
+    return invalid(why, "velocity_deadband = " + core::significant(velocity_deadband, 17) + " is not a finite value >= 0");
   if (!std::isfinite(velocity_cutoff_hz) || velocity_cutoff_hz < 0)
-    return fail(why, "velocity_cutoff_hz = " + core::significant(velocity_cutoff_hz, 17) + " is not a finite value >= 0");
+    return invalid(why, "velocity_cutoff_hz = " + core::significant(velocity_cutoff_hz, 17) + " is not a finite value >= 0");
   return true;
 }
 
 bool FrictionModel::IsValid(std::string* why) const {
   if (!options.IsValid(why)) return false;
   if (!covariance.empty() && covariance.size() != joints.size())
-    return fail(why, std::to_string(covariance.size()) + " covariances for " + std::to_string(joints.size()) + " joints");
+    return invalid(why, std::to_string(covariance.size()) + " covariances for " + std::to_string(joints.size()) + " joints");
   for (std::size_t j = 0; j < joints.size(); ++j) {
     std::string reason;
     if (!friction::IsValid(kind, joints[j], &reason))
-      return fail(why, "joint " + std::to_string(j + 1) + ": " + reason);
+      return invalid(why, "joint " + std::to_string(j + 1) + ": " + reason);
   }
   return true;
 }

@@ -3,15 +3,11 @@
 #include <cmath>
 #include <string>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 
 namespace momentum::friction {
 namespace {
-
-bool fail(std::string* why, std::string message) {
-  if (why) *why = std::move(message);
-  return false;
-}
 
 double value(const Parameters<double>& p, int i) {
   double x[Parameters<double>::kSize];
@@ -29,27 +25,27 @@ namespace check {
 
 bool finite(const Parameters<double>& p, const int* first, const int* last, std::string* why) {
   for (const int* i = first; i != last; ++i)
-    if (!std::isfinite(value(p, *i))) return fail(why, std::string(kParameterNames[*i]) + " is not finite");
+    if (!std::isfinite(value(p, *i))) return invalid(why, std::string(kParameterNames[*i]) + " is not finite");
   return true;
 }
 
 bool not_negative(const Parameters<double>& p, int i, std::string* why) {
-  return value(p, i) < 0 ? fail(why, named(p, i) + " is negative") : true;
+  return value(p, i) < 0 ? invalid(why, named(p, i) + " is negative") : true;
 }
 
 bool positive(const Parameters<double>& p, int i, std::string* why) {
-  return !(value(p, i) > 0) ? fail(why, named(p, i) + " is not positive") : true;
+  return !(value(p, i) > 0) ? invalid(why, named(p, i) + " is not positive") : true;
 }
 
 bool below(const Parameters<double>& p, int asymmetry, int level, std::string* why) {
   if (std::abs(value(p, asymmetry)) < value(p, level)) return true;
-  return fail(why, "|" + std::string(kParameterNames[asymmetry]) + "| = " + core::significant(std::abs(value(p, asymmetry)), 17) +
+  return invalid(why, "|" + std::string(kParameterNames[asymmetry]) + "| = " + core::significant(std::abs(value(p, asymmetry)), 17) +
                        " is not below " + named(p, level) + " (the level of one direction would not be positive)");
 }
 
 bool not_above(const Parameters<double>& p, int asymmetry, int level, std::string* why) {
   if (!(std::abs(value(p, asymmetry)) > value(p, level))) return true;
-  return fail(why, "|" + std::string(kParameterNames[asymmetry]) + "| = " + core::significant(std::abs(value(p, asymmetry)), 17) +
+  return invalid(why, "|" + std::string(kParameterNames[asymmetry]) + "| = " + core::significant(std::abs(value(p, asymmetry)), 17) +
                        " exceeds " + named(p, level) + " (a negative level in one direction)");
 }
 

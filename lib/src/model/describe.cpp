@@ -8,14 +8,15 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
 
 namespace momentum::model {
 
 namespace {
 
 std::string triple(const Eigen::Vector3d& v) {
-  return short_number(v.x()) + " " + short_number(v.y()) + " " + short_number(v.z());
+  return core::short_number(v.x()) + " " + core::short_number(v.y()) + " " + core::short_number(v.z());
 }
 
 // Roll-pitch-yaw as in URDF: R = Rz(yaw) Ry(pitch) Rx(roll).
@@ -74,9 +75,9 @@ std::string describe_chain(const Model& model, const Profile& profile) {
                       joint.type == JointType::prismatic ? "prismatic"
                       : joint.continuous                 ? "continuous"
                                                          : "revolute",
-                      triple(joint.axis), short_number(joint.limits.lower), short_number(joint.limits.upper),
-                      short_number(joint.limits.velocity), short_number(joint.limits.effort),
-                      short_number(model.k_i[j]), short_number(model.rotor_inertia[j])});
+                      triple(joint.axis), core::short_number(joint.limits.lower), core::short_number(joint.limits.upper),
+                      core::short_number(joint.limits.velocity), core::short_number(joint.limits.effort),
+                      core::short_number(model.k_i[j]), core::short_number(model.rotor_inertia[j])});
   }
   out += table(joints) + "\n";
 
@@ -86,11 +87,11 @@ std::string describe_chain(const Model& model, const Profile& profile) {
     const Body& body = model.bodies[j];
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(body.inertia,
                                                                 Eigen::EigenvaluesOnly);
-    bodies.push_back({std::to_string(j + 1), body.name, short_number(body.mass), triple(body.com),
+    bodies.push_back({std::to_string(j + 1), body.name, core::short_number(body.mass), triple(body.com),
                       triple(solver.eigenvalues()), join(body.merged_links)});
   }
   out += table(bodies) + "\n";
-  out += "total mass " + short_number(model.total_mass()) + " kg (moving bodies)\n";
+  out += "total mass " + core::short_number(model.total_mass()) + " kg (moving bodies)\n";
   out += "tip        " + model.tip + " in " + model.bodies.back().name + " frame: xyz " +
          triple(model.tip_placement.translation) + ", rpy " +
          triple(rpy(model.tip_placement.rotation)) + "\n";
@@ -100,7 +101,7 @@ std::string describe_chain(const Model& model, const Profile& profile) {
   if (const Payload* payload = profile.payload(); payload && model.payload_body >= 0) {
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(payload->inertia,
                                                                 Eigen::EigenvaluesOnly);
-    out += "payload    " + payload->name + ": " + short_number(payload->mass) + " kg, com " +
+    out += "payload    " + payload->name + ": " + core::short_number(payload->mass) + " kg, com " +
            triple(payload->com) + " m in " + (payload->link.empty() ? model.tip : payload->link) +
            ", principal_inertia " + triple(solver.eigenvalues()) + " kg m^2, in body " +
            std::to_string(model.payload_body + 1) + " (included above)\n";

@@ -5,8 +5,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::model {
 

@@ -9,9 +9,9 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/model/dynamics.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/columns.hpp"
 
 namespace momentum::model {

@@ -17,10 +17,10 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/model/collision.hpp"
 #include "momentum/model/inertial_corrections.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::model {
 

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
+#include "momentum/core/error.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::model {
 

@@ -10,10 +10,10 @@
 #include <fstream>
 #include <sstream>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
 #include "momentum/model/model.hpp"
 #include "momentum/model/profile_text.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/version.hpp"
 
 namespace momentum::model {

@@ -7,15 +7,10 @@
 #include <set>
 #include <stdexcept>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::observer {
 namespace {
-
-bool fail(std::string* why, std::string message) {
-  if (why) *why = std::move(message);
-  return false;
-}
 
 [[noreturn]] void error(const std::string& message) { throw Error("observer: " + message); }
 
@@ -38,12 +33,12 @@ std::vector<double> number_or_list(const nlohmann::json& value, const char* key)
 }  // namespace
 
 bool ObserverOptions::IsValid(std::string* why) const {
-  if (order != 1 && order != 2) return fail(why, "order must be 1 or 2, not " + std::to_string(order));
-  if (k1.empty() || k2.empty() || k3.empty()) return fail(why, "a gain list is empty");
+  if (order != 1 && order != 2) return invalid(why, "order must be 1 or 2, not " + std::to_string(order));
+  if (k1.empty() || k2.empty() || k3.empty()) return invalid(why, "a gain list is empty");
   if (!std::isfinite(gap_factor) || !(gap_factor > 1))
-    return fail(why, "gap_factor must be a finite number > 1");
+    return invalid(why, "gap_factor must be a finite number > 1");
   if (!std::isfinite(bridge_tolerance) || !(bridge_tolerance >= 0))
-    return fail(why, "bridge_tolerance must be a finite number >= 0");
+    return invalid(why, "bridge_tolerance must be a finite number >= 0");
   if (!signals.IsValid(why)) return false;
   const std::size_t n = std::max({k1.size(), k2.size(), k3.size()});
   for (std::size_t j = 0; j < n; ++j) {
@@ -51,7 +46,7 @@ bool ObserverOptions::IsValid(std::string* why) const {
             order == 2 ? k3[std::min(j, k3.size() - 1)] : 0.0};
     std::string reason;
     if (!g.IsValid(&reason)) {
-      return fail(why, (n > 1 ? "joint " + std::to_string(j + 1) + ": " : std::string()) + reason);
+      return invalid(why, (n > 1 ? "joint " + std::to_string(j + 1) + ": " : std::string()) + reason);
     }
   }
   return true;

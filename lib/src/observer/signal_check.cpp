@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::observer {
 namespace {
@@ -14,19 +14,14 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // 1.4826 median(|x|) is the standard deviation of zero-mean normal noise.
 constexpr double kMadToSigma = 1.4826;
 
-bool fail(std::string* why, std::string message) {
-  if (why) *why = std::move(message);
-  return false;
-}
-
 std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
 
 }  // namespace
 
 bool SignalCheckOptions::IsValid(std::string* why) const {
-  if (!(std::isfinite(sigmas) && sigmas > 0)) return fail(why, "signal check: sigmas must be a finite number > 0");
+  if (!(std::isfinite(sigmas) && sigmas > 0)) return invalid(why, "signal check: sigmas must be a finite number > 0");
   if (!(std::isfinite(limit_factor) && limit_factor >= 1))
-    return fail(why, "signal check: limit_factor must be a finite number >= 1");
+    return invalid(why, "signal check: limit_factor must be a finite number >= 1");
   return true;
 }
 

@@ -9,10 +9,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/eval/truth.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/reader.hpp"
 
 namespace momentum::plot {

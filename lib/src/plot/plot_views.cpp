@@ -4,8 +4,8 @@
 #include <cmath>
 #include <map>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::plot {
 

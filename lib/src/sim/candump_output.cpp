@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::sim {
 

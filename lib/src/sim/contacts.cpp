@@ -4,8 +4,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "momentum/sim/random.hpp"
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
+#include "momentum/core/random.hpp"
 #include "momentum/stream/format.hpp"
 
 namespace momentum::sim {
@@ -28,7 +28,7 @@ double ramp(double t, double a, double b) {
   return 0.5 - 0.5 * std::cos(std::numbers::pi * (t - a) / (b - a));
 }
 
-Eigen::Vector3d random_unit(Random& random) {
+Eigen::Vector3d random_unit(core::Random& random) {
   const double z = random.uniform(-1, 1);
   const double phi = random.uniform(0, 2 * std::numbers::pi);
   const double s = std::sqrt(std::max(0.0, 1 - z * z));
@@ -107,7 +107,7 @@ std::vector<Contact> plan_contacts(const ContactOptions& options, const model::M
     throw Error("collisions: " + std::to_string(options.link_radius.size()) + " link radii for " +
                 std::to_string(n) + " links");
 
-  Random random(derive_seed(seed, kContactStream));
+  core::Random random(core::derive_seed(seed, kContactStream));
   std::vector<Contact> contacts(options.count);
   double busy = 0;
   for (auto& c : contacts) {
@@ -162,9 +162,9 @@ std::vector<Contact> plan_contacts(const ContactOptions& options, const model::M
   const double span = t_end - t_begin;
   const double needed = busy + std::max(0, options.count - 1) * options.min_spacing;
   if (options.count > 0 && !(needed <= span))
-    throw Error("collisions: " + std::to_string(options.count) + " contacts need " + short_number(needed) +
-                " s of steady motion with a spacing of " + short_number(options.min_spacing) + " s, the run has " +
-                short_number(std::max(0.0, span)) + " s; raise --duration or lower --min-spacing");
+    throw Error("collisions: " + std::to_string(options.count) + " contacts need " + core::short_number(needed) +
+                " s of steady motion with a spacing of " + core::short_number(options.min_spacing) + " s, the run has " +
+                core::short_number(std::max(0.0, span)) + " s; raise --duration or lower --min-spacing");
   // Uniform placement: N sorted uniform draws of the slack, then the contacts in order.
   std::vector<double> slack(options.count);
   for (auto& s : slack) s = random.uniform(0, span - needed);

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::sim {
 

@@ -6,8 +6,9 @@
 #include <numbers>
 #include <optional>
 
+#include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
 #include "momentum/model/dynamics.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::sim {
 
@@ -106,7 +107,7 @@ std::vector<Glitch> plan_glitches(const GlitchOptions& options, int nq, double b
                                   const std::vector<Contact>& contacts, std::uint64_t seed) {
   std::vector<Glitch> out;
   if (options.count <= 0 || !(end > begin)) return out;
-  Random random(seed);
+  core::Random random(seed);
   auto clear = [&](double t) {
     for (const Contact& c : contacts)
       if (t > c.t_onset - kGlitchClearance && t < c.t_end + kGlitchClearance) return false;
@@ -142,24 +143,24 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
   const long long total_steps = std::llround(duration * f_int);
   const long long control_every = std::max(1LL, std::llround(f_int / options.controller.rate_hz));
 
-  Trajectory trajectory(options.trajectory, model, home, derive_seed(seed, kTrajectoryStream));
+  Trajectory trajectory(options.trajectory, model, home, core::derive_seed(seed, kTrajectoryStream));
   const double begin = trajectory.steady_begin() +
                        std::min(kContactGuard, 0.1 * (trajectory.steady_end() - trajectory.steady_begin()));
   const std::vector<Contact> contacts =
-      plan_contacts(options.contacts, model, begin, trajectory.steady_end(), derive_seed(seed, kContactPlanStream));
+      plan_contacts(options.contacts, model, begin, trajectory.steady_end(), core::derive_seed(seed, kContactPlanStream));
 
   const std::vector<Glitch> glitches = plan_glitches(options.glitches, n, begin, trajectory.steady_end(), contacts,
-                                                     derive_seed(seed, kGlitchStream));
+                                                     core::derive_seed(seed, kGlitchStream));
   if (static_cast<int>(glitches.size()) < options.glitches.count)
     warn("room for " + std::to_string(glitches.size()) + " of " + std::to_string(options.glitches.count) +
-         " glitches " + short_number(kGlitchClearance) + " s away from the contacts and each other; lengthen --duration");
+         " glitches " + core::short_number(kGlitchClearance) + " s away from the contacts and each other; lengthen --duration");
   std::size_t next_glitch = 0;
 
   Plant plant(model, friction, options.integrator);
   Controller controller(model, options.controller);
   Eigen::Array<bool, Eigen::Dynamic, 1> revolute(n);
   for (int j = 0; j < n; ++j) revolute[j] = model.joints[j].type == model::JointType::revolute;
-  Sensors sensors(options.sensors, model.k_i, revolute, derive_seed(seed, kSensorStream));
+  Sensors sensors(options.sensors, model.k_i, revolute, core::derive_seed(seed, kSensorStream));
 
   Eigen::VectorXd q_d(n), dq_d(n), ddq_d(n), tau_m = Eigen::VectorXd::Zero(n), generalized(n);
   trajectory.evaluate(0.0, q_d, dq_d, ddq_d);
@@ -266,7 +267,7 @@ RunSummary simulate(const model::Model& model, const friction::FrictionModel* fr
     ++summary.steps;
     if ((step & 1023) == 0) {
       if (!plant.q().allFinite() || !plant.dq().allFinite())
-        throw Error("the simulation diverged at t = " + short_number(t) +
+        throw Error("the simulation diverged at t = " + core::short_number(t) +
                     " s; raise --internal-rate or use --integrator rk4");
       if ((step & 16383) == 0 && callbacks.progress) callbacks.progress(t);
     }

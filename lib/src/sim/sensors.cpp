@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::sim {
 
@@ -91,8 +91,8 @@ bool SensorOptions::IsValid(std::string* why) const {
 
 Sensors::Sensors(const SensorOptions& options, const Eigen::VectorXd& k_i,
                  const Eigen::Array<bool, Eigen::Dynamic, 1>& revolute, std::uint64_t seed)
-    : options_(options), k_i_(k_i), noise_(derive_seed(seed, kNoiseStream)),
-      timing_(derive_seed(seed, kTimingStream)) {
+    : options_(options), k_i_(k_i), noise_(core::derive_seed(seed, kNoiseStream)),
+      timing_(core::derive_seed(seed, kTimingStream)) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("sensors: " + why);
   resolution_.setZero(k_i.size());

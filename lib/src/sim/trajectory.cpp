@@ -5,7 +5,8 @@
 #include <limits>
 #include <numbers>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
 
 namespace momentum::sim {
 
@@ -47,13 +48,13 @@ bool TrajectoryOptions::IsValid(std::string* why) const {
   // A bound keeps the step count (duration x internal rate) far inside a 64-bit integer: 1e20 s
   // overflowed it and ran until killed (issue 26's hostile test).
   if (duration > kMaxTrajectoryDuration)
-    return invalid(why, "duration " + short_number(duration) + " s is longer than the " +
-                         short_number(kMaxTrajectoryDuration) + " s (116 days) one run simulates");
+    return invalid(why, "duration " + core::short_number(duration) + " s is longer than the " +
+                         core::short_number(kMaxTrajectoryDuration) + " s (116 days) one run simulates");
   if (kind == TrajectoryKind::paper || kind == TrajectoryKind::multisine || kind == TrajectoryKind::excite) {
     if (!positive(blend)) return invalid(why, "blend must be a positive number of seconds");
     if (2 * blend > duration)
-      return invalid(why, "duration " + short_number(duration) + " s is shorter than the two blends of " +
-                           short_number(blend) + " s");
+      return invalid(why, "duration " + core::short_number(duration) + " s is shorter than the two blends of " +
+                           core::short_number(blend) + " s");
     if (!positive(amplitude)) return invalid(why, "amplitude must be positive");
   }
   if (kind == TrajectoryKind::paper && !positive(frequency))
@@ -106,7 +107,7 @@ void Quintic::evaluate(double t, double& p, double& v, double& a) const {
 
 Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& model,
                        const Eigen::VectorXd& home, std::uint64_t seed)
-    : options_(options), n_(model.nq), random_(derive_seed(seed, kPtpStream)) {
+    : options_(options), n_(model.nq), random_(core::derive_seed(seed, kPtpStream)) {
   std::string why;
   if (!options.IsValid(&why)) throw Error("trajectory: " + why);
   if (home.size() != n_)
@@ -122,8 +123,8 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
     upper_[j] = lim.upper;
     vmax_[j] = std::isfinite(lim.velocity) && lim.velocity > 0 ? lim.velocity : kDefaultVelocityLimit;
     if (!(home[j] >= lower_[j] && home[j] <= upper_[j]))
-      throw Error("trajectory: home position " + short_number(home[j]) + " of joint " + std::to_string(j + 1) +
-                  " is outside its limits [" + short_number(lower_[j]) + ", " + short_number(upper_[j]) + "]");
+      throw Error("trajectory: home position " + core::short_number(home[j]) + " of joint " + std::to_string(j + 1) +
+                  " is outside its limits [" + core::short_number(lower_[j]) + ", " + core::short_number(upper_[j]) + "]");
   }
   const double D = options.duration, Tb = options.blend;
 
@@ -144,7 +145,7 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
       harmonics_.assign(n_, {Harmonic{options.amplitude, kTwoPi * options.frequency, 0.0}});
       break;
     case TrajectoryKind::multisine: {
-      Random phases(derive_seed(seed, kPhaseStream));
+      core::Random phases(core::derive_seed(seed, kPhaseStream));
       harmonics_.resize(n_);
       for (int j = 0; j < n_; ++j)
         for (int k = 1; k <= options.harmonics; ++k)
@@ -198,8 +199,8 @@ Trajectory::Trajectory(const TrajectoryOptions& options, const model::Model& mod
     for (int j = 0; j < n_; ++j) {
       if (q[j] < lower_[j] || q[j] > upper_[j])
         throw Error("trajectory " + std::string(trajectory_name(options.kind)) + ": joint " +
-                    std::to_string(j + 1) + " would reach " + short_number(q[j]) + " at t = " + short_number(t) +
-                    " s, outside its limits [" + short_number(lower_[j]) + ", " + short_number(upper_[j]) +
+                    std::to_string(j + 1) + " would reach " + core::short_number(q[j]) + " at t = " + core::short_number(t) +
+                    " s, outside its limits [" + core::short_number(lower_[j]) + ", " + core::short_number(upper_[j]) +
                     "]; move the home pose or lower the amplitude");
     }
   };

@@ -8,9 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/rename.hpp"
 

@@ -5,8 +5,8 @@
 #include <charconv>
 #include <unordered_set>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::stream {
 

@@ -5,8 +5,8 @@
 #include <cstring>
 #include <limits>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::stream {
 

@@ -11,8 +11,8 @@
 #include <tuple>
 #include <memory>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::stream::mcap {
 

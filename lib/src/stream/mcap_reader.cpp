@@ -4,9 +4,9 @@
 #include <set>
 #include <unordered_map>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/joint_state.hpp"
 
 namespace momentum::stream::detail {

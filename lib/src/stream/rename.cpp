@@ -11,10 +11,10 @@
 #include <unordered_map>
 #include <utility>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::stream {
 namespace {

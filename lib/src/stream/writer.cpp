@@ -3,7 +3,7 @@
 #include <cstring>
 #include <limits>
 
-#include "momentum/stream/error.hpp"
+#include "momentum/core/error.hpp"
 
 namespace momentum::stream {
 

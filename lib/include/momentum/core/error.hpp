@@ -55,8 +55,5 @@ void warn_row(std::string_view kind, std::string_view message);
 // `where: message` where `where` is `file:line` (or `file` when line is 0).
 std::string located(std::string_view file, std::uint64_t line, std::string_view message);
 
-// A number as messages and reports show it: 6 significant digits ("0.1", "1e-07", "inf",
-// "nan"), and -0 as "0".
-std::string short_number(double x);
 
 }  // namespace momentum

@@ -13,7 +13,7 @@
 // The observer, the fitter, the report, the band, the profile's JSON and the tools reach the
 // models only through the Kind below and visit(): a switch over the list, so a per-sample call
 // costs a jump, not a virtual call (the observer steps friction on every row of every joint).
-// The default search box of the fitter is per parameter (fit::paper_bounds), shared by every
+// The default search box of the fitter is per parameter (friction_fit::paper_bounds), shared by every
 // model that reads the parameter.
 //
 // Adding a model: its header, and one line in MOMENTUM_FRICTION_MODELS with its #include.

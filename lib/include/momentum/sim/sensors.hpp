@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "momentum/sim/random.hpp"
+#include "momentum/core/random.hpp"
 
 namespace momentum::sim {
 
@@ -107,7 +107,7 @@ class Sensors {
   SensorOptions options_;
   Eigen::VectorXd k_i_;
   Eigen::VectorXd resolution_;  // per joint, 0 = exact
-  Random noise_, timing_;
+  core::Random noise_, timing_;
   Eigen::VectorXd previous_q_;
   double previous_t_ = 0;
   bool started_ = false;

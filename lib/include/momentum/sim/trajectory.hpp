@@ -30,7 +30,7 @@
 #include <Eigen/Core>
 
 #include "momentum/model/model.hpp"
-#include "momentum/sim/random.hpp"
+#include "momentum/core/random.hpp"
 
 namespace momentum::sim {
 
@@ -126,7 +126,7 @@ class Trajectory {
   // ptp: the current move of each joint, ending at segment_end_, then rest until next_start_.
   std::vector<Quintic> segment_;
   double segment_end_ = 0, next_start_ = 0;
-  Random random_;
+  core::Random random_;
   double steady_begin_ = 0, steady_end_ = 0;
 };
 
