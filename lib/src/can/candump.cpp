@@ -9,10 +9,10 @@
 #include <cstring>
 
 #include "momentum/can/asc.hpp"
+#include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
 #include "momentum/core/number.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::can {
 
@@ -489,8 +489,8 @@ LineKind parse_candump_line(std::string_view line, Frame& frame, ParsedLine& inf
 // ---------------------------------------------------------------------------------------------
 
 std::unique_ptr<CandumpReader> CandumpReader::open(const std::string& path, CandumpOptions options) {
-  if (path.empty() || path == "-") {
-    if (options.display_name.empty()) options.display_name = "<stdin>";
+  if (core::is_standard_input(path)) {
+    if (options.display_name.empty()) options.display_name = core::input_name(path);
     return from_fd(0, false, std::move(options));
   }
   const int fd = core::open_input(path);  // recorded: no output of the run may overwrite it

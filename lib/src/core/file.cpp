@@ -168,8 +168,8 @@ RemoveOnSignal::~RemoveOnSignal() {
 }
 
 int open_input(const std::string& path, const std::string& display_name) {
-  const bool from_stdin = is_standard_output(path);
-  const std::string name = !display_name.empty() ? display_name : from_stdin ? "<stdin>" : path;
+  const bool from_stdin = is_standard_input(path);
+  const std::string name = !display_name.empty() ? display_name : input_name(path);
   const int fd = from_stdin ? STDIN_FILENO : ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw Error(name + ": cannot open: " + std::strerror(errno));
   struct stat st {};

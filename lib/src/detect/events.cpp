@@ -10,8 +10,9 @@
 #include <cstring>
 #include <limits>
 
+#include "momentum/core/error.hpp"
+#include "momentum/core/file.hpp"
 #include "momentum/core/text.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/format.hpp"
 #include "momentum/stream/format.hpp"
 
@@ -189,8 +190,8 @@ void EventWriter::write(const Event& event) {
 std::unique_ptr<EventReader> EventReader::open(const std::string& path, EventReaderOptions options) {
   std::unique_ptr<EventReader> reader(new EventReader());
   reader->options_ = options;
-  const bool from_stdin = path.empty() || path == "-";
-  reader->name_ = from_stdin ? "<stdin>" : path;
+  const bool from_stdin = core::is_standard_input(path);
+  reader->name_ = core::input_name(path);
   reader->file_ = from_stdin ? stdin : std::fopen(path.c_str(), "rb");
   if (!reader->file_) throw Error(path + ": cannot open: " + std::strerror(errno));
   reader->owns_ = !from_stdin;

@@ -12,13 +12,13 @@
 #include <cstdio>
 #include <cstring>
 
-#include "momentum/core/number.hpp"
 #include "momentum/calibrate/calibration.hpp"
+#include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
 #include "momentum/detect/events_json.hpp"
 #include "momentum/detect/friction_band.hpp"
 #include "momentum/drivers/live.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 
 namespace momentum::drivers {
 
@@ -49,7 +49,7 @@ class LiveInput {
  public:
   explicit LiveInput(const std::string& path) : open_path_(path) {
     struct stat st {};
-    if (path == "-") {
+    if (core::is_standard_input(path)) {
       // A closed standard input (`<&-`) would make descriptor 0 the next file opened (our own
       // signal pipe, read forever): refuse it before anything is opened.
       if (::fcntl(0, F_GETFD) < 0 && errno == EBADF)

@@ -308,12 +308,7 @@ ProfileFitSummary fit_profile_friction(const ProfileFitOptions& options, const O
     document["friction"] =
         merged_friction_section(current_section, robot.nq, fits, fit_options.kind, fit_options.friction);
     model::append_provenance(document, "mo-lugre-fit", provenance_details(report, options.window_text));
-    if (destination == "-") {
-      core::write_document("-", document.dump(2) + "\n");
-    } else {
-      model::save_profile_as(document, state.profile, destination);
-    }
-    report.outcome = "friction written to " + (destination == "-" ? std::string("stdout") : destination);
+    report.outcome = "friction written to " + model::write_updated_profile(document, state.profile, destination);
   }
   for (const auto& j : report.joints)
     if (const std::string w = position_dependence_warning(j); !w.empty()) warn(w);

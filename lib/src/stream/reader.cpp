@@ -13,10 +13,10 @@
 #include <iterator>
 #include <unordered_set>
 
+#include "momentum/core/error.hpp"
 #include "momentum/core/file.hpp"
 #include "momentum/core/text.hpp"
 #include "momentum/stream/columns.hpp"
-#include "momentum/stream/error.hpp"
 #include "momentum/stream/mcap.hpp"
 #include "mcap_reader.hpp"
 
@@ -715,8 +715,8 @@ bool is_live(int fd) {
 }  // namespace
 
 std::unique_ptr<Reader> Reader::open(const std::string& path, ReaderOptions options) {
-  bool from_stdin = path.empty() || path == "-";
-  std::string name = !options.display_name.empty() ? options.display_name : from_stdin ? "<stdin>" : path;
+  const bool from_stdin = core::is_standard_input(path);
+  std::string name = !options.display_name.empty() ? options.display_name : core::input_name(path);
   // Opened through core, which records the input so that no output of the run overwrites it.
   int fd = core::open_input(from_stdin ? "-" : path, name);
   struct stat st;

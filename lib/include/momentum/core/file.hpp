@@ -28,6 +28,14 @@ class BrokenPipe : public std::exception {
 // True for the names that mean standard output: "-" and "".
 inline bool is_standard_output(std::string_view path) { return path.empty() || path == "-"; }
 
+// True for the names that mean standard input: "-" and "".
+inline bool is_standard_input(std::string_view path) { return path.empty() || path == "-"; }
+
+// How messages name an input: "<stdin>" for standard input, else its path.
+inline std::string input_name(std::string_view path) {
+  return is_standard_input(path) ? std::string("<stdin>") : std::string(path);
+}
+
 // Writes all of `bytes` to the descriptor `fd` (short writes and EINTR retried). Throws
 // BrokenPipe on EPIPE, and momentum::Error `NAME: write error: why` on any other failure (a
 // full disk: `No space left on device`).
