@@ -40,7 +40,7 @@ common_sources=("$src"/lib/src/stream/*.cpp "$src"/lib/src/core/*.cpp)
 # instrumented compile) it does not.
 model_sources=("$src"/lib/src/model/{model,collision,inertial_corrections,profile,profile_text}.cpp)
 # The profile target reads the sections that the friction and detect stages own as well.
-section_sources=("$src"/lib/src/friction/friction.cpp "$src"/lib/src/detect/thresholds.cpp)
+section_sources=("$src"/lib/src/friction/*.cpp "$src"/lib/src/detect/thresholds.cpp)
 # FUZZ_TARGETS="stream_csv profile" builds and runs only those.
 read -r -a targets <<< "${FUZZ_TARGETS:-candump dbc urdf stream_csv stream_binary stream_mcap profile}"
 sources_of() {
