@@ -67,18 +67,18 @@ struct Lugre {
   // that starts in motion has no start-up transient.
   template <class T>
   static T start(const Parameters<T>& p, const T& w, T& z) {
-    z = stribeck_level(p, w) * detail::sign(w) / p.sigma0;
-    return stribeck_torque(p, w);
+    z = Stribeck::sliding_level(p, w) * detail::sign(w) / p.sigma0;
+    return Stribeck::steady(p, w);
   }
-  // The sliding friction level at velocity w, Nm: g(w), which the bristles saturate at.
+  // The sliding level the bristles saturate at, and the friction at constant velocity: LuGre's
+  // steady state is the Stribeck model, so both are Stribeck's.
   template <class T>
   static T sliding_level(const Parameters<T>& p, const T& w) {
-    return stribeck_level(p, w);
+    return Stribeck::sliding_level(p, w);
   }
-  // Friction at constant velocity w, Nm: the Stribeck curve.
   template <class T>
   static T steady(const Parameters<T>& p, const T& w) {
-    return stribeck_torque(p, w);
+    return Stribeck::steady(p, w);
   }
   // The steady state's parameter gradient and where it becomes affine: Stribeck's.
   static void steady_gradient(const Parameters<double>& p, double w, double* gradient) {
