@@ -39,7 +39,7 @@ foreach(f IN LISTS exported)
   endif()
 endforeach()
 
-# The installed library example, with the core component only: configured with the fitting
+# The installed library example, with the runtime component only: configured with the fitting
 # stack and CLI11 made unfindable, it must still configure, build and run.
 set(example ${WORK_DIR}/prefix/share/momentum/examples/library)
 set(arm ${WORK_DIR}/prefix/share/momentum/robots/paper-arm/paper-arm.json)
@@ -49,7 +49,7 @@ execute_process(COMMAND ${CMAKE_COMMAND} -S ${example} -B ${WORK_DIR}/example
                         -DCMAKE_DISABLE_FIND_PACKAGE_CLI11=TRUE
                 RESULT_VARIABLE rc)
 if(rc)
-  message(FATAL_ERROR "configuring the installed example with COMPONENTS core failed")
+  message(FATAL_ERROR "configuring the installed example with COMPONENTS runtime failed")
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/example RESULT_VARIABLE rc)
 if(rc)
@@ -67,20 +67,20 @@ endif()
 # The same program through pkg-config.
 find_program(PKG_CONFIG pkg-config REQUIRED)
 set(ENV{PKG_CONFIG_PATH} "${WORK_DIR}/prefix/lib/pkgconfig:${WORK_DIR}/prefix/lib/x86_64-linux-gnu/pkgconfig")
-foreach(pc momentum-core momentum)
+foreach(pc momentum-runtime momentum)
   execute_process(COMMAND ${PKG_CONFIG} --cflags --libs ${pc} RESULT_VARIABLE rc OUTPUT_VARIABLE flags
                   ERROR_VARIABLE why OUTPUT_STRIP_TRAILING_WHITESPACE)
   if(rc)
     message(FATAL_ERROR "pkg-config ${pc} failed: ${why}")
   endif()
 endforeach()
-execute_process(COMMAND ${PKG_CONFIG} --cflags --libs momentum-core OUTPUT_VARIABLE flags
+execute_process(COMMAND ${PKG_CONFIG} --cflags --libs momentum-runtime OUTPUT_VARIABLE flags
                 OUTPUT_STRIP_TRAILING_WHITESPACE)
 separate_arguments(flags UNIX_COMMAND "${flags}")
 execute_process(COMMAND c++ -std=c++20 ${example}/push_at_rest.cpp ${flags} -o ${WORK_DIR}/push-at-rest-pc
                 RESULT_VARIABLE rc ERROR_VARIABLE why)
 if(rc)
-  message(FATAL_ERROR "building the example with pkg-config momentum-core failed: ${why}")
+  message(FATAL_ERROR "building the example with pkg-config momentum-runtime failed: ${why}")
 endif()
 execute_process(COMMAND ${WORK_DIR}/push-at-rest-pc ${arm} RESULT_VARIABLE rc OUTPUT_VARIABLE out)
 if(rc OR NOT out STREQUAL expected)
