@@ -25,8 +25,10 @@ using Params = friction::Parameters<double>;
 
 ParameterBounds paper_bounds() {
   ParameterBounds b;
-  b.lower = {6e4, 0.0, 0.0, 1e-5, 1e-5, 1e-7, -3.0, -3.0};
-  b.upper = {1e5, 500.0, 10.0, 10.0, 10.0, 0.1, 3.0, 3.0};
+  for (int i = 0; i < kParameterCount; ++i) {
+    b.lower[static_cast<std::size_t>(i)] = friction::kDefaultSearchBox[i].lower;
+    b.upper[static_cast<std::size_t>(i)] = friction::kDefaultSearchBox[i].upper;
+  }
   return b;
 }
 

@@ -36,20 +36,32 @@ ParameterBounds scaled_bounds(const JointScale& scale) {
       !std::isfinite(scale.speed_scale))
     return b;
   const double torque = std::min(2.0 * scale.residual_scale, scale.effort_limit);
-  b.upper[2] = torque / scale.speed_scale;
-  b.upper[3] = b.upper[4] = torque;
-  b.lower[3] = b.lower[4] = 1e-6 * torque;
-  b.upper[5] = std::min(0.1, scale.velocity_limit);
-  b.lower[5] = 1e-6 * b.upper[5];
-  b.upper[6] = b.upper[7] = 0.3 * torque;
-  b.lower[6] = b.lower[7] = -0.3 * torque;
+  for (std::size_t i = 0; i < b.lower.size(); ++i) {
+    switch (friction::kParameterQuantities[i]) {
+      case friction::Quantity::stiffness:
+      case friction::Quantity::damping:
+        break;
+      case friction::Quantity::viscous:
+        b.upper[i] = torque / scale.speed_scale;
+        break;
+      case friction::Quantity::level:
+        b.upper[i] = torque;
+        b.lower[i] = 1e-6 * torque;
+        break;
+      case friction::Quantity::velocity:
+        b.upper[i] = std::min(b.upper[i], scale.velocity_limit);
+        b.lower[i] = 1e-6 * b.upper[i];
+        break;
+      case friction::Quantity::asymmetry:
+        b.upper[i] = 0.3 * torque;
+        b.lower[i] = -0.3 * torque;
+        break;
+    }
+  }
   return b;
 }
 
-bool physical_bound(int parameter, int side) {
-  if (side > 0 || parameter == 0) return false;  // every upper bound, and sigma0's lower one
-  return parameter >= 1 && parameter <= 5;       // sigma1, sigma2 >= 0; tau_c, tau_s, w_s > 0
-}
+bool physical_bound(int parameter, int side) { return side < 0 && friction::physical_lower_bound(parameter); }
 
 bool IdentifyOptions::IsValid(std::string* why) const {
   if (!fit.IsValid(why)) return false;

@@ -57,6 +57,42 @@ inline constexpr const char* kParameterUnits[8] = {"Nm/rad", "Nm s/rad", "Nm s/r
 // Index of the first signed parameter: delta_c and delta_s may be negative, the others not.
 inline constexpr int kFirstSignedParameter = 6;
 
+// What a parameter measures. It decides how the fitter's default search box scales to a robot
+// (friction_fit::scaled_bounds: to the torques and speeds of the joint's data) and which end
+// of the box is a physical limit rather than a choice (physical_lower_bound).
+enum class Quantity {
+  stiffness,  // Nm/rad, the bristles' sigma0: the paper's box, not scaled
+  damping,    // Nm s/rad, the bristles' sigma1: the paper's box, not scaled, >= 0
+  viscous,    // Nm s/rad, sigma2: [0, torque scale / speed scale]
+  level,      // Nm, tau_c and tau_s: (0, torque scale]
+  velocity,   // rad/s, w_s: (0, min(0.1, velocity limit)]
+  asymmetry,  // Nm, signed, delta_c and delta_s: [-0.3, 0.3] x torque scale
+};
+// In array order.
+inline constexpr Quantity kParameterQuantities[8] = {Quantity::stiffness, Quantity::damping, Quantity::viscous,
+                                                     Quantity::level,     Quantity::level,   Quantity::velocity,
+                                                     Quantity::asymmetry, Quantity::asymmetry};
+
+// The default search box of each parameter, in array order: the paper's (Zhang et al. 2020,
+// sect. 4): sigma0 [6e4, 1e5] Nm/rad, sigma1 [0, 500] and sigma2 [0, 10] Nm s/rad, tau_c and
+// tau_s (0, 10] Nm, w_s (0, 0.1] rad/s; the open lower ends of the parameters that must be
+// positive are 1e-6 of the upper end. Not in the paper: the asymmetries in [-3, 3] Nm (30% of
+// the paper's largest levels). Every model that reads a parameter searches the same box, which
+// the fitter scales to the robot unless told not to (mo-friction-fit --paper-bounds).
+struct SearchRange {
+  double lower, upper;
+};
+inline constexpr SearchRange kDefaultSearchBox[8] = {{6e4, 1e5},   {0.0, 500.0},  {0.0, 10.0}, {1e-5, 10.0},
+                                                     {1e-5, 10.0}, {1e-7, 0.1},   {-3.0, 3.0}, {-3.0, 3.0}};
+
+// True when the lower end of parameter i's box is a physical limit the search may not pass
+// (sigma1, sigma2 >= 0; tau_c, tau_s, w_s > 0), not a choice like sigma0's 6e4 or the
+// asymmetries' -3; no upper end is.
+constexpr bool physical_lower_bound(int i) {
+  const Quantity q = kParameterQuantities[i];
+  return q == Quantity::damping || q == Quantity::viscous || q == Quantity::level || q == Quantity::velocity;
+}
+
 // How a model with an internal state (a bristle deflection z) advances it over one sample
 // interval.
 enum class LugreUpdate {

@@ -13,8 +13,9 @@
 // The observer, the fitter, the report, the band, the profile's JSON and the tools reach the
 // models only through the Kind below and visit(): a switch over the list, so a per-sample call
 // costs a jump, not a virtual call (the observer steps friction on every row of every joint).
-// The default search box of the fitter is per parameter (friction_fit::paper_bounds), shared by every
-// model that reads the parameter.
+// A parameter means the same in every model that reads it (sigma0 is the bristle stiffness of
+// LuGre and of Dahl), so its name, unit, default search box and the way that box scales to a
+// robot are the parameter's, in parameters.hpp, and shared by those models.
 //
 // Adding a model: its header, and one line in MOMENTUM_FRICTION_MODELS with its #include.
 #pragma once

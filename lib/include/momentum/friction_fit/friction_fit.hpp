@@ -42,11 +42,9 @@ struct ParameterBounds {
   std::array<double, kParameterCount> upper{};
 };
 
-// The paper's box: sigma0 (6e4, 1e5], sigma1 (0, 500], sigma2 (0, 10], tau_c, tau_s (0, 10],
-// w_s (0, 0.1]. Open lower ends of parameters that must be positive (tau_c, tau_s, w_s)
-// become 1e-6 of the upper end; sigma1 and sigma2 may be 0. Not in the paper: the asymmetries
-// delta_c, delta_s in [-3, 3] Nm (a 30% difference between directions at the paper's largest
-// levels); combinations that make a level non-positive are infeasible (infinite cost).
+// Every parameter's default search box, the paper's (friction::kDefaultSearchBox, beside the
+// parameters' names and units). Combinations that make a level non-positive are infeasible
+// (infinite cost).
 ParameterBounds paper_bounds();
 
 // Index 0..5 of a parameter name ("sigma0", ..., "w_s"), or -1.

@@ -33,9 +33,9 @@ JointScale measure_scale(const JointSeries& data, double effort_limit, double ve
 // data give no scale (residual_scale or speed_scale 0).
 ParameterBounds scaled_bounds(const JointScale& scale);
 
-// True when a bound is a physical limit the search may not pass (sigma1, sigma2 >= 0; tau_c,
-// tau_s, w_s > 0, whose lower bounds are tiny fractions of the upper ones); side -1 lower,
-// +1 upper.
+// True when a bound is a physical limit the search may not pass: the lower ends that
+// friction::physical_lower_bound names (sigma1, sigma2 >= 0; tau_c, tau_s, w_s > 0, whose lower
+// bounds are tiny fractions of the upper ones); side -1 lower, +1 upper.
 bool physical_bound(int parameter, int side);
 
 struct IdentifyOptions {
