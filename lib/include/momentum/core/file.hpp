@@ -5,7 +5,7 @@
 // names it) is refused before anything is truncated; a reader that went away (a closed pipe)
 // ends the run quietly (BrokenPipe); a write that fails (a full disk, an I/O error) is an error
 // naming the file; a whole document written to a file replaces it atomically (the profile
-// updates of mo-calibrate, mo-lugre-fit and mo-dynfit, reports), under the profile lock when
+// updates of mo-calibrate, mo-friction-fit and mo-dynfit, reports), under the profile lock when
 // asked. The caller builds the bytes; this layer decides where they go, so it composes with any
 // serialisation.
 

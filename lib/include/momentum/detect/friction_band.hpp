@@ -10,7 +10,7 @@
 // off by a few of its reported uncertainties, and a threshold calibrated on fast motion calls
 // the difference a contact. The band is k times the first-order uncertainty of the fitted
 // steady-state friction at the joint's speed (friction::steady_friction_sd, from the
-// covariance mo-lugre-fit writes into the profile): a few hundredths of a Nm at speed, the
+// covariance mo-friction-fit writes into the profile): a few hundredths of a Nm at speed, the
 // static level's uncertainty when creeping. Calibration measures a moving row of mu by how far
 // it lies beyond the band, and the detector widens the moving threshold by it, so the two
 // agree on every row.

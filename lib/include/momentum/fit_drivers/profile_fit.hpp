@@ -1,4 +1,4 @@
-// Friction identification of a robot profile from logs, as mo-lugre-fit runs it: read and thin
+// Friction identification of a robot profile from logs, as mo-friction-fit runs it: read and thin
 // the observed logs, leave out the slow samples, fit every joint (identify_friction), compare
 // with the profile's current friction and the mirror logs, and write the fitted friction into
 // the profile unless the fit is worse or failed. The tool parses its options into
@@ -23,7 +23,7 @@
 namespace momentum::drivers {
 
 // An option value the identification cannot use; what() names the option, e.g. "--bounds:
-// 'mu=1:2' is not NAME=VALUE ...". mo-lugre-fit reports it as a usage error.
+// 'mu=1:2' is not NAME=VALUE ...". mo-friction-fit reports it as a usage error.
 struct OptionError : std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };

@@ -1,7 +1,7 @@
 // Per-joint friction as the rest of the suite uses it: a FrictionModel (model kind, update
 // options and parameters per joint, read from and written to the profile's "friction" section)
 // and a stateful evaluator, JointFriction, that turns a velocity sample into a friction torque.
-// The observer (mo-observe), the simulator (mo-sim) and the fitter (mo-lugre-fit) all go through
+// The observer (mo-observe), the simulator (mo-sim) and the fitter (mo-friction-fit) all go through
 // JointFriction::step, so they agree sample for sample.
 //
 // Profile section (man 5 momentum-profile):
@@ -15,7 +15,7 @@
 // The parameters a joint holds are those its model reads (registry.hpp); delta_c and delta_s
 // (parameters.hpp) are optional, 0 when absent.
 // A joint may carry the covariance its fit reports for the parameters that set the steady-state
-// friction (mo-lugre-fit writes it; absent: unknown):
+// friction (mo-friction-fit writes it; absent: unknown):
 //   "covariance": {"parameters": ["sigma2", "tau_c", "tau_s", "w_s"],
 //                  "matrix": [[6.6e-7, ...], ...]}          // in the parameters' units squared
 #pragma once

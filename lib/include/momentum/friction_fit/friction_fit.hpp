@@ -55,7 +55,7 @@ int parameter_index(const std::string& name);
 // (LuGre, Stribeck).
 std::vector<int> model_parameters(friction::Kind kind, bool asymmetric = false);
 
-// The short genetic search that mo-lugre-fit runs before the polish by default: population
+// The short genetic search that mo-friction-fit runs before the polish by default: population
 // 40, 60 generations, 2 runs, stop after 20 generations without improvement (paper's crossover
 // and mutation probabilities). With the polish it ends at least as low as the paper's full GA
 // (200 x 300) on the paper's motion at a twentieth of the evaluations (bench/fit_bench.cpp).

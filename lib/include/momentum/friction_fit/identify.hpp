@@ -1,6 +1,6 @@
 // Friction identification for a robot: search boxes scaled to the robot and its data instead of
 // the paper's small arm, and a fit that ends on a bound of its box searched again in a wider
-// one, or reported as failed (mo-lugre-fit writes no profile from a failed fit unless forced).
+// one, or reported as failed (mo-friction-fit writes no profile from a failed fit unless forced).
 #pragma once
 
 #include <array>

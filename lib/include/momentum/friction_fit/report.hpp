@@ -1,4 +1,4 @@
-// What mo-lugre-fit tells its user: the fit report (text for stderr, JSON for --report) and
+// What mo-friction-fit tells its user: the fit report (text for stderr, JSON for --report) and
 // the profile update (the "friction" section merged, refused when worse than the current one,
 // with a provenance entry).
 #pragma once

@@ -1,5 +1,5 @@
 // Text-preserving edits of a profile: a tool that updates one section of a profile (mo-calibrate's
-// "thresholds", mo-lugre-fit's "friction") rewrites only the text of the members that changed, so
+// "thresholds", mo-friction-fit's "friction") rewrites only the text of the members that changed, so
 // the profile's comments, key order and formatting survive and a nightly update is a one-section
 // diff. Schema: man 5 momentum-profile.
 #pragma once
