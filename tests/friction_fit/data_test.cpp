@@ -210,3 +210,45 @@ TEST(ReadSeries, ThinningKeepsAFirstWindowLongerThanTheBudget) {
   EXPECT_EQ(s[0].size(), 1000u);  // the first window, whole; the two after it dropped
   EXPECT_DOUBLE_EQ(s[0].t.back(), 9.99);
 }
+
+TEST(ThinToBudget, ManyLogsOfOneWindowKeepEvenlySpreadLogsWithinTheBudget) {
+  // Eight logs (an hour each, say) that each kept one window of 1000 samples, over the budget of
+  // 3000 together: every second log goes, then every fourth, until the budget holds (2000).
+  // Two joints share their positions; joint 2 misses the first sample of log 5 (NaN), which
+  // does not move the segments it keeps.
+  std::vector<friction_fit::JointSeries> day;
+  for (int log = 0; log < 8; ++log) {
+    std::string text = "t,q1,q2,dq1,r1,dq2,r2\n";
+    for (int k = 0; k < 1000; ++k) {
+      const std::string r = std::to_string(1000 * log + k);
+      text += std::to_string(k / 100.0) + "," + r + ",0,1," + r + "," + (log == 4 && k == 0 ? "nan" : "1") + "," + r + "\n";
+    }
+    friction_fit::append_log(day, read(text));
+  }
+  ASSERT_EQ(day.size(), 2u);
+  ASSERT_EQ(day[0].size(), 8000u);
+  ASSERT_TRUE(day[0].positions);
+  EXPECT_EQ(friction_fit::thin_to_budget(day, 3000), 6000u);
+  for (const auto& s : day) {
+    // Logs 0 and 4, whole, in order, each starting afresh; their r tells which rows they are.
+    ASSERT_EQ(s.size(), s.joint == 1 ? 2000u : 1999u);
+    for (std::size_t k = 0; k < s.size(); ++k) {
+      const int log = s.r[k] < 4000 ? 0 : 4;
+      EXPECT_GE(s.r[k], 1000 * log);
+      EXPECT_LT(s.r[k], 1000 * log + 1000);
+      if (k > 0) {
+        EXPECT_GT(s.r[k], s.r[k - 1]);
+      }
+      const bool log_start = s.r[k] == 1000 * log || (s.joint == 2 && s.r[k] == 4001);
+      EXPECT_EQ(s.restart[k] == 2, log_start) << "joint " << s.joint << " r " << s.r[k];
+      ASSERT_TRUE(s.positions);
+      EXPECT_EQ((*s.positions)[0][k], s.r[k]);  // the positions kept with their samples
+    }
+  }
+  // Nothing to do within the budget, nor with one segment over it.
+  EXPECT_EQ(friction_fit::thin_to_budget(day, 4000), 0u);
+  EXPECT_EQ(friction_fit::thin_to_budget(day, 0), 0u);
+  std::vector<friction_fit::JointSeries> one = {day[0]};
+  one[0].restart.assign(one[0].size(), 0);
+  EXPECT_EQ(friction_fit::thin_to_budget(one, 10), 0u);
+}

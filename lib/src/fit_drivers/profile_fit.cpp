@@ -183,7 +183,8 @@ ProfileFitSummary fit_profile_friction(const ProfileFitOptions& options, const O
   select.gap_factor = state.observer.gap_factor;
   // Long logs are thinned to windows while read: each input its share of the budget, each
   // window long against the observer's memory, which its warm-up lets fade (5 of the
-  // slowest time constant, 1/K2 for the second-order observer).
+  // slowest time constant, 1/K2 for the second-order observer); then the logs together to
+  // the whole budget, since a share is never less than one window.
   std::vector<std::string> inputs = options.inputs;
   if (inputs.empty()) inputs.push_back("-");
   const std::vector<observer::Gains> robot_gains = state.observer.joint_gains(robot.nq);
@@ -210,6 +211,7 @@ ProfileFitSummary fit_profile_friction(const ProfileFitOptions& options, const O
       append_log(series, more);
     }
   }
+  thin_to_budget(series, options.max_samples);
   std::vector<observer::Gains> gains;
   for (auto& s : series) {
     if (s.joint > robot.nq)

@@ -119,6 +119,65 @@ void append_log(std::vector<JointSeries>& into, const std::vector<JointSeries>& 
   }
 }
 
+std::size_t thin_to_budget(std::vector<JointSeries>& series, std::size_t max_samples) {
+  if (max_samples == 0 || series.empty()) return 0;
+  const std::size_t first_size = series.front().size();
+  // Positions already thinned: (the positions before, the samples kept, the positions after).
+  struct Thinned {
+    std::shared_ptr<const Positions> before;
+    std::vector<std::uint8_t> keep;
+    std::shared_ptr<const Positions> after;
+  };
+  std::vector<Thinned> thinned;
+  for (auto& s : series) {
+    if (s.size() <= max_samples) continue;
+    std::vector<std::size_t> starts;  // of the segments, then the end
+    for (std::size_t k = 0; k < s.size(); ++k)
+      if (k == 0 || s.restart[k] == 2) starts.push_back(k);
+    const std::size_t segments = starts.size();
+    starts.push_back(s.size());
+    auto kept_with = [&](std::size_t stride) {
+      std::size_t n = 0;
+      for (std::size_t i = 0; i < segments; i += stride) n += starts[i + 1] - starts[i];
+      return n;
+    };
+    std::size_t stride = 1;
+    while (stride < segments && kept_with(stride) > max_samples) stride *= 2;
+    if (stride == 1) continue;
+    std::vector<std::uint8_t> keep(s.size(), 0);
+    for (std::size_t i = 0; i < segments; i += stride)
+      std::fill(keep.begin() + static_cast<std::ptrdiff_t>(starts[i]),
+                keep.begin() + static_cast<std::ptrdiff_t>(starts[i + 1]), std::uint8_t{1});
+    if (s.has_positions()) {
+      std::shared_ptr<const Positions> after;
+      for (const auto& done : thinned)
+        if (done.before == s.positions && done.keep == keep) after = done.after;
+      if (!after) {
+        auto own = std::make_shared<Positions>(s.positions->size());
+        for (std::size_t c = 0; c < own->size(); ++c)
+          for (std::size_t k = 0; k < keep.size(); ++k)
+            if (keep[k]) (*own)[c].push_back((*s.positions)[c][k]);
+        after = own;
+        thinned.push_back({s.positions, keep, after});
+      }
+      s.positions = after;
+    }
+    std::size_t out = 0;
+    for (std::size_t k = 0; k < keep.size(); ++k) {
+      if (!keep[k]) continue;
+      s.t[out] = s.t[k];
+      s.dq[out] = s.dq[k];
+      s.r[out] = s.r[k];
+      s.restart[out] = s.restart[k];
+      s.scored[out] = s.scored[k];
+      ++out;
+    }
+    for (auto* v : {&s.t, &s.dq, &s.r}) v->resize(out);
+    for (auto* v : {&s.restart, &s.scored}) v->resize(out);
+  }
+  return first_size - series.front().size();
+}
+
 double estimate_velocity_noise(const JointSeries& s) {
   if (s.size() < 3) return 0;
   std::vector<double> d2;

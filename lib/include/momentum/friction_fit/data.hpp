@@ -74,6 +74,16 @@ void append_series(JointSeries& into, const JointSeries& more);
 // the joints that shared them before. Throws momentum::Error when the joint counts differ.
 void append_log(std::vector<JointSeries>& into, const std::vector<JointSeries>& more);
 
+// Holds logs appended by append_log to a budget of max_samples per joint (0: no bound), the
+// way read_series holds one log: each joint's data are segments that start the model afresh
+// (restart 2: each log, and each window that read_series's thinning kept), numbered in order,
+// and while a joint holds more than the budget and more than one segment, only the segments
+// whose number is a multiple of 2, then of 4, ... are kept. Each input's share of the budget
+// is at least one window, so without this many short logs would hold a window each, and the
+// fit's cost would grow with the number of logs. Joints that shared positions and keep the
+// same samples still share them. Returns the samples removed from the first joint.
+std::size_t thin_to_budget(std::vector<JointSeries>& series, std::size_t max_samples);
+
 // Stops counting samples where the measured speed is below `min_speed` (rad/s, > 0), and the
 // `settle` seconds after each of them (the observer filter's memory: about 3 / K1).
 // At standstill and at slow reversals a joint sticks: its friction is set by the presliding
