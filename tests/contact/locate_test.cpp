@@ -4,6 +4,8 @@
 // labelled pulse widths.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cstdlib>
 
 #include <cmath>
@@ -131,6 +133,28 @@ TEST(Locate, WholeContactKeepsTheProximalLinkThatTheNoiseAccepts) {
   const auto wrist = push(model, 5, segments[5].from + 0.5 * (segments[5].to - segments[5].from) + 0.05 * axis.unitOrthogonal(),
                           Eigen::Vector3d(20, -30, 40), sigma, 6);
   EXPECT_EQ(locator.locate(wrist, 2, 6, mc::LinkChoice::proximal_accepted).link, 6);
+}
+
+// The end rows name the link their probabilities favour: over pushes off the axis of links 3 to
+// 6 of the UR5 with noise, the chosen link is the candidate of the highest probability, and it
+// is the pushed one.
+TEST(Locate, MostProbableNamesTheLinkOfTheHighestProbability) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const double sigma = 0.05;
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  for (int body = 2; body < 6; ++body) {
+    const Eigen::Vector3d axis = (segments[body].to - segments[body].from).normalized();
+    const Eigen::Vector3d point =
+        segments[body].from + 0.6 * (segments[body].to - segments[body].from) + 0.05 * axis.unitOrthogonal();
+    const auto samples = push(model, body, point, Eigen::Vector3d(25, -30, 35), sigma, 11 + body);
+    const mc::Location loc = locator.locate(samples, 2, body + 1, mc::LinkChoice::most_probable);
+    ASSERT_FALSE(loc.candidates.empty());
+    const auto top = std::max_element(loc.candidates.begin(), loc.candidates.end(),
+                                      [](const auto& a, const auto& b) { return a.probability < b.probability; });
+    EXPECT_EQ(loc.link, top->link) << "pushed body " << body + 1;
+    EXPECT_EQ(loc.link, body + 1);
+  }
 }
 
 // A push on the forearm while the wrist's residuals carry the model's error in a pattern that

@@ -65,7 +65,7 @@ void EventContact::add(double t, const double* q, const double* x, const double*
 void EventContact::fill(detect::Event& event, bool whole) {
   const auto samples = window_.samples();
   const Location loc = locator_.locate(samples, std::min(first_link_, event.link), event.link,
-                                       whole ? LinkChoice::proximal_accepted : LinkChoice::best_fit);
+                                       whole ? LinkChoice::most_probable : LinkChoice::best_fit);
   auto& c = event.contact;
   if (loc.link > 0) {
     event.link = loc.link;

@@ -479,6 +479,11 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     out.candidates.push_back(c);
   }
   candidate_probabilities(out.candidates, static_cast<double>(fit.size()) * nq, scale, options_.link_temperature);
+  if (choice == LinkChoice::most_probable) {
+    chosen = 0;
+    for (std::size_t i = 1; i < fits.size(); ++i)
+      if (out.candidates[i].probability > out.candidates[chosen].probability) chosen = i;  // ties: proximal
+  }
   out.noise_scale = scale;
   const BodyFit& f = fits[chosen];
   const Segment& seg = segments_[static_cast<std::size_t>(f.body)];

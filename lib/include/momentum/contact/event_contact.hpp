@@ -9,8 +9,8 @@
 //   end row:        fitted on the whole event (peak force, impulse), classified on its full rise.
 //
 // The link of the identified and end rows becomes the identified one (Locator::locate): at onset the best fit
-// among the fired signature's link and those beyond it; at the end the most proximal of them
-// whose fit the calibrated noise accepts (LinkChoice::proximal_accepted).
+// among the fired signature's link and those beyond it; at the end the most probable of them
+// (LinkChoice::most_probable), so that the link named is the one its own probabilities favour.
 //
 // Between them the class is decided live, as early as the rule allows: at the first row over
 // a joint's collision level (a collision), when the pulse is over (below half its peak: its

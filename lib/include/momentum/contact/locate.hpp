@@ -111,6 +111,13 @@ enum class LinkChoice {
   // errors on those joints, is not evidence of a more distal contact; one that fits much better
   // with a direction and a point of its own is.
   proximal_accepted,
+  // The body of the highest probability (CandidateFit::probability; ties: the more proximal):
+  // the link that the probabilities stated beside it favour. For a whole contact (mo-detect's
+  // end rows). Against proximal_accepted, learnt on neither campaign: isolation on the MuJoCo
+  // UR5 campaigns 18 -> 19 of 30 and 21 -> 33 of 48 (each with the other's class rule), on
+  // the suite's own at 125 Hz (seeds 6, 7) paper arm 28 -> 28 of 30, UR5 22 -> 23 of 29,
+  // Panda 26 -> 26 of 30; on the UR10e log link4 the third push goes to link 4 (was 5).
+  most_probable,
 };
 
 // One candidate body's best fit: its weighted residual sum of squares at its best point (in
