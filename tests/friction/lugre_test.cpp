@@ -361,6 +361,11 @@ TEST(FrictionModel, CovarianceRoundTripAndErrors) {
             "friction: joint 1: covariance: \"tau_c\" is given twice");
   EXPECT_EQ(error_of(R"({"parameters": ["tau_c", "sigma2"], "matrix": [[1, 0.5], [0, 1]]})"),
             "friction: joint 1: covariance: 'matrix' is not symmetric");
+  // Near-zero covariances that differ in their leading digit but by far less than 1e-9 of the
+  // variances' scale are rounding (a fit of the Panda at 1 kHz wrote such a pair).
+  EXPECT_EQ(error_of(R"({"parameters": ["tau_c", "sigma2"], "matrix": [[1e-4, 3e-19], [-2e-19, 4e-6]]})"), "");
+  EXPECT_EQ(error_of(R"({"parameters": ["tau_c", "sigma2"], "matrix": [[1e-4, 3e-14], [-2e-14, 4e-6]]})"),
+            "friction: joint 1: covariance: 'matrix' is not symmetric");
   EXPECT_EQ(error_of(R"({"parameters": ["tau_c"], "matrix": [[-1]]})"), "friction: joint 1: covariance: a variance is negative");
   EXPECT_EQ(error_of(R"({"parameters": ["tau_c"], "matrix": [[1, 2]]})"), "friction: joint 1: covariance: 'matrix' is not 1 x 1");
   EXPECT_EQ(error_of(R"([1])"),

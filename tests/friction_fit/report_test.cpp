@@ -156,6 +156,15 @@ TEST(SteadyCovariance, FromTheReportedUncertaintiesAndCorrelationsOfTheSteadySta
   ASSERT_EQ(model.covariance.size(), 2u);
   ASSERT_TRUE(model.covariance[0]);
   EXPECT_EQ(model.covariance[0]->matrix, c->matrix);
+  // Correlations whose halves differ by rounding (near zero, not in their leading digit): the
+  // matrix written is symmetric to the bit, and read back.
+  f.model.correlation(2, 3) = 1e-13;
+  f.model.correlation(3, 2) = -4e-13;
+  const auto rounded = friction_fit::steady_covariance(f.model);
+  ASSERT_TRUE(rounded);
+  for (std::size_t a = 0; a < 4; ++a)
+    for (std::size_t b = 0; b < 4; ++b) EXPECT_EQ(rounded->matrix[a * 4 + b], rounded->matrix[b * 4 + a]);
+  EXPECT_NO_THROW(mf::friction_from_json(friction_fit::merged_friction_section(&kLugreSection, 2, {f}, mf::Kind::lugre, {})));
   // A NaN uncertainty gives none.
   f.model.estimates[5].uncertainty = NAN;
   EXPECT_FALSE(friction_fit::steady_covariance(f.model));

@@ -65,8 +65,12 @@ SteadyCovariance covariance_from_json(const nlohmann::json& entry, const std::st
   for (std::size_t a = 0; a < n; ++a) {
     if (c.matrix[a * n + a] < 0) error(where + "a variance is negative");
     for (std::size_t b = 0; b < a; ++b) {
+      // To 1e-9 of the scale of the two variances: a covariance near zero written by hand or
+      // rounded need not agree in its leading digit with its mirror.
       const double x = c.matrix[a * n + b], y = c.matrix[b * n + a];
-      if (std::abs(x - y) > 1e-9 * std::max(std::abs(x), std::abs(y))) error(where + "'matrix' is not symmetric");
+      const double scale = std::sqrt(c.matrix[a * n + a] * c.matrix[b * n + b]);
+      if (std::abs(x - y) > 1e-9 * std::max({std::abs(x), std::abs(y), scale}))
+        error(where + "'matrix' is not symmetric");
     }
   }
   return c;

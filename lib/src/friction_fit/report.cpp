@@ -1,5 +1,6 @@
 #include "momentum/friction_fit/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -315,9 +316,15 @@ std::optional<friction::SteadyCovariance> steady_covariance(const ModelFit& fit)
   if (rows.empty() || fit.correlation.rows() != static_cast<Eigen::Index>(fit.free.size())) return std::nullopt;
   for (std::size_t a : rows)
     for (std::size_t b : rows) {
-      const double value = fit.correlation(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) *
-                           fit.estimates[static_cast<std::size_t>(fit.free[a])].uncertainty *
-                           fit.estimates[static_cast<std::size_t>(fit.free[b])].uncertainty;
+      // The correlation's two halves agree only to rounding (a near-zero correlation can differ
+      // in its leading digit); their mean, multiplied in one order, is the same both ways, so the
+      // profile holds a matrix that is symmetric to the bit.
+      const auto i = static_cast<Eigen::Index>(a), k = static_cast<Eigen::Index>(b);
+      const double correlation = 0.5 * (fit.correlation(std::min(i, k), std::max(i, k)) +
+                                        fit.correlation(std::max(i, k), std::min(i, k)));
+      const double u_a = fit.estimates[static_cast<std::size_t>(fit.free[a])].uncertainty;
+      const double u_b = fit.estimates[static_cast<std::size_t>(fit.free[b])].uncertainty;
+      const double value = correlation * std::min(u_a, u_b) * std::max(u_a, u_b);
       if (!std::isfinite(value)) return std::nullopt;
       c.matrix.push_back(value);
     }
