@@ -115,8 +115,9 @@ enum class LinkChoice {
   // the link that the probabilities stated beside it favour. For a whole contact (mo-detect's
   // end rows). Against proximal_accepted, learnt on neither campaign: isolation on the MuJoCo
   // UR5 campaigns 18 -> 19 of 30 and 21 -> 33 of 48 (each with the other's class rule), on
-  // the suite's own at 125 Hz (seeds 6, 7) paper arm 28 -> 28 of 30, UR5 22 -> 23 of 29,
-  // Panda 26 -> 26 of 30; on the UR10e log link4 the third push goes to link 4 (was 5).
+  // the suite's own (seeds 6, 7) at 125 Hz paper arm 28 -> 28 of 30, UR5 22 -> 23 of 29,
+  // Panda 26 -> 26 of 30, at 1 kHz 30 -> 30, 22 -> 21, 26 -> 26; on the UR10e log link4 the
+  // third push goes to link 4 (was 5).
   most_probable,
 };
 
