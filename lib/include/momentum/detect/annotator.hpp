@@ -20,7 +20,7 @@ namespace momentum::detect {
 // contact::EventContact.
 class EventAnnotator {
  public:
-  virtual ~EventAnnotator() = default;
+  virtual ~EventAnnotator();
   // Every row, before the detector's step on it: t (s), q, the residual x and the velocities dq
   // (n each; dq null when the stream has none).
   virtual void add(double t, const double* q, const double* x, const double* dq) = 0;

@@ -119,10 +119,6 @@ class DriftingBaseline {
 // Peak response of |x - baseline| to a ramp of the residual from 0 to 1 over `rise` seconds, with
 // the baseline following at `drift_time`: what share of a contact's torque the rest statistic
 // sees. 1 for a frozen baseline.
-inline double drift_gain(double drift_time, double rise) {
-  if (!(drift_time > 0 && std::isfinite(drift_time))) return 1;
-  if (!(rise > 0)) return 1;
-  return -drift_time / rise * std::expm1(-rise / drift_time);
-}
+double drift_gain(double drift_time, double rise);
 
 }  // namespace momentum::detect

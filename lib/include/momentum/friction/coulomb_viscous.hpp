@@ -32,11 +32,7 @@ struct CoulombViscous {
 
   // Finite parameters, sigma2 >= 0, tau_c >= 0, |delta_c| <= tau_c; false with the reason in
   // `why` (when non-null).
-  static bool IsValid(const Parameters<double>& p, std::string* why) {
-    return check::finite(p, std::begin(kParameters), std::end(kParameters), why) &&
-           check::finite(p, std::begin(kAsymmetry), std::end(kAsymmetry), why) && check::not_negative(p, 2, why) &&
-           check::not_negative(p, 3, why) && check::not_above(p, 6, 3, why);
-  }
+  static bool IsValid(const Parameters<double>& p, std::string* why);
 
   // The torque for velocity w, Nm (dt and the state z are not used).
   template <class T>

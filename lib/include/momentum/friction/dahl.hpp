@@ -40,11 +40,7 @@ struct Dahl {
 
   // Finite parameters, sigma2 >= 0, tau_c > 0, |delta_c| < tau_c, sigma0 > 0; false with the
   // reason in `why` (when non-null).
-  static bool IsValid(const Parameters<double>& p, std::string* why) {
-    return check::finite(p, std::begin(kParameters), std::end(kParameters), why) &&
-           check::finite(p, std::begin(kAsymmetry), std::end(kAsymmetry), why) && check::not_negative(p, 2, why) &&
-           check::positive(p, 3, why) && check::below(p, 6, 3, why) && check::positive(p, 0, why);
-  }
+  static bool IsValid(const Parameters<double>& p, std::string* why);
 
   // The torque after dt seconds at velocity w, Nm, advancing z.
   template <class T>

@@ -52,11 +52,7 @@ struct Lugre {
 
   // Finite parameters, the Stribeck checks (sigma2 >= 0, levels positive in both directions,
   // w_s > 0), sigma0 > 0, sigma1 >= 0; false with the reason in `why` (when non-null).
-  static bool IsValid(const Parameters<double>& p, std::string* why) {
-    return check::finite(p, std::begin(kParameters), std::end(kParameters), why) &&
-           check::finite(p, std::begin(kAsymmetry), std::end(kAsymmetry), why) && Stribeck::levels_valid(p, why) &&
-           check::positive(p, 0, why) && check::not_negative(p, 1, why);
-  }
+  static bool IsValid(const Parameters<double>& p, std::string* why);
 
   // The torque after dt seconds at velocity w, Nm, advancing z (lugre_step).
   template <class T>

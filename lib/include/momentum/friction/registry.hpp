@@ -17,7 +17,8 @@
 // LuGre and of Dahl), so its name, unit, default search box and the way that box scales to a
 // robot are the parameter's, in parameters.hpp, and shared by those models.
 //
-// Adding a model: its header, and one line in MOMENTUM_FRICTION_MODELS with its #include.
+// Adding a model: its header and its source (the parameter checks, IsValid), and one line in
+// MOMENTUM_FRICTION_MODELS with its #include.
 #pragma once
 
 #include <string>

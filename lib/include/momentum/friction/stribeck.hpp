@@ -38,10 +38,7 @@ struct Stribeck {
            check::below(p, 6, 3, why) && check::below(p, 7, 4, why) && check::positive(p, 5, why);
   }
   // Finite parameters and levels_valid; false with the reason in `why` (when non-null).
-  static bool IsValid(const Parameters<double>& p, std::string* why) {
-    return check::finite(p, std::begin(kParameters), std::end(kParameters), why) &&
-           check::finite(p, std::begin(kAsymmetry), std::end(kAsymmetry), why) && levels_valid(p, why);
-  }
+  static bool IsValid(const Parameters<double>& p, std::string* why);
 
   // The torque for velocity w after dt seconds, Nm (the state z is not used).
   template <class T>

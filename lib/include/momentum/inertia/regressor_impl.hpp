@@ -4,7 +4,7 @@
 #include <array>
 #include <vector>
 
-#include "momentum/inertia/regressor.hpp"
+// (regressor.hpp includes this file at its end, after every declaration it needs.)
 
 namespace momentum::inertia {
 

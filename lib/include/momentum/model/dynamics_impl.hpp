@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "momentum/model/dynamics.hpp"
+// (dynamics.hpp includes this file at its end, after every declaration it needs.)
 
 namespace momentum::model {
 

@@ -10,8 +10,6 @@ namespace momentum::model {
 
 // `value` as a JSON number when it is finite; null for NaN and +-inf, which JSON cannot
 // write (a missing or undefined number: a delay of no detection, an unidentified parameter).
-inline nlohmann::json json_number(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
+nlohmann::json json_number(double value);
 
 }  // namespace momentum::model
