@@ -119,6 +119,41 @@ void append_log(std::vector<JointSeries>& into, const std::vector<JointSeries>& 
   }
 }
 
+namespace {
+
+// Keeps the samples k for which keep(k) holds, in place, in every column of the series.
+template <class Keep>
+void keep_samples(JointSeries& s, Keep keep) {
+  std::size_t out = 0;
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    if (!keep(k)) continue;
+    s.t[out] = s.t[k];
+    s.dq[out] = s.dq[k];
+    s.r[out] = s.r[k];
+    s.restart[out] = s.restart[k];
+    s.scored[out] = s.scored[k];
+    ++out;
+  }
+  for (auto* v : {&s.t, &s.dq, &s.r}) v->resize(out);
+  for (auto* v : {&s.restart, &s.scored}) v->resize(out);
+}
+
+// The same for the positions read (one table for every joint, with its own times).
+template <class Keep>
+void keep_positions(std::vector<double>& t, Positions& q, Keep keep) {
+  std::size_t out = 0;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (!keep(t[k])) continue;
+    t[out] = t[k];
+    for (auto& column : q) column[out] = column[k];
+    ++out;
+  }
+  t.resize(out);
+  for (auto& column : q) column.resize(out);
+}
+
+}  // namespace
+
 std::size_t thin_to_budget(std::vector<JointSeries>& series, std::size_t max_samples) {
   if (max_samples == 0 || series.empty()) return 0;
   const std::size_t first_size = series.front().size();
@@ -162,18 +197,7 @@ std::size_t thin_to_budget(std::vector<JointSeries>& series, std::size_t max_sam
       }
       s.positions = after;
     }
-    std::size_t out = 0;
-    for (std::size_t k = 0; k < keep.size(); ++k) {
-      if (!keep[k]) continue;
-      s.t[out] = s.t[k];
-      s.dq[out] = s.dq[k];
-      s.r[out] = s.r[k];
-      s.restart[out] = s.restart[k];
-      s.scored[out] = s.scored[k];
-      ++out;
-    }
-    for (auto* v : {&s.t, &s.dq, &s.r}) v->resize(out);
-    for (auto* v : {&s.restart, &s.scored}) v->resize(out);
+    keep_samples(s, [&](std::size_t k) { return keep[k] != 0; });
   }
   return first_size - series.front().size();
 }
@@ -200,40 +224,6 @@ std::size_t exclude_slow_samples(JointSeries& s, double min_speed, double settle
   return removed;
 }
 
-namespace {
-
-// Keeps the samples for which keep(t) holds, in place, in every column of the series.
-template <class Keep>
-void keep_samples(JointSeries& s, Keep keep) {
-  std::size_t out = 0;
-  for (std::size_t k = 0; k < s.size(); ++k) {
-    if (!keep(s.t[k])) continue;
-    s.t[out] = s.t[k];
-    s.dq[out] = s.dq[k];
-    s.r[out] = s.r[k];
-    s.restart[out] = s.restart[k];
-    s.scored[out] = s.scored[k];
-    ++out;
-  }
-  for (auto* v : {&s.t, &s.dq, &s.r}) v->resize(out);
-  for (auto* v : {&s.restart, &s.scored}) v->resize(out);
-}
-
-// The same for the positions read (one table for every joint, with its own times).
-template <class Keep>
-void keep_positions(std::vector<double>& t, Positions& q, Keep keep) {
-  std::size_t out = 0;
-  for (std::size_t k = 0; k < t.size(); ++k) {
-    if (!keep(t[k])) continue;
-    t[out] = t[k];
-    for (auto& column : q) column[out] = column[k];
-    ++out;
-  }
-  t.resize(out);
-  for (auto& column : q) column.resize(out);
-}
-
-}  // namespace
 
 std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& options) {
   std::string why;
@@ -319,7 +309,7 @@ std::vector<JointSeries> read_series(stream::Reader& in, const SelectOptions& op
     if (options.max_samples > 0 && !series.empty() && series.front().size() > options.max_samples &&
         window_of(t) >= stride) {
       stride *= 2;
-      for (auto& s : series) keep_samples(s, [&](double t) { return window_of(t) % stride == 0; });
+      for (auto& s : series) keep_samples(s, [&](std::size_t k) { return window_of(s.t[k]) % stride == 0; });
       keep_positions(table_t, table, [&](double t) { return window_of(t) % stride == 0; });
     }
   }
