@@ -106,10 +106,10 @@ enum class LinkChoice {
   // The most proximal candidate whose cost the calibrated noise accepts at
   // LocatorOptions::proximal_alpha and that no more distal candidate beats by more than its
   // extra unknowns (at least 1) explain by chance at the same level (a likelihood-ratio test),
-  // else best_fit's. For a whole contact: a contact puts no torque on the joints beyond its
-  // link, and a more distal body that fits only a little better, by absorbing the model's small
-  // errors on those joints, is not evidence of a more distal contact; one that fits much better
-  // with a direction and a point of its own is.
+  // else best_fit's. A rule for a whole contact (mo-detect's before most_probable): a contact
+  // puts no torque on the joints beyond its link, and a more distal body that fits only a
+  // little better, by absorbing the model's small errors on those joints, is not evidence of a
+  // more distal contact; one that fits much better with a direction and a point of its own is.
   proximal_accepted,
   // The body of the highest probability (CandidateFit::probability; ties: the more proximal):
   // the link that the probabilities stated beside it favour. For a whole contact (mo-detect's
