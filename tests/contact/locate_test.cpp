@@ -135,6 +135,51 @@ TEST(Locate, WholeContactKeepsTheProximalLinkThatTheNoiseAccepts) {
   EXPECT_EQ(locator.locate(wrist, 2, 6, mc::LinkChoice::proximal_accepted).link, 6);
 }
 
+// The dependence of a fit's misfits along the samples, against closed forms: an AR(1) sequence
+// of correlation 0.8 is worth (1 + 0.8) / (1 - 0.8) = 9 times fewer independent samples, white
+// noise and a sign that alternates 1, a constant misfit as few as one sample.
+TEST(Locate, DependenceFactorOfTheMisfits) {
+  std::mt19937_64 random(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  auto sequence = [&](double rho, std::size_t n) {
+    std::vector<Eigen::VectorXd> out;
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(3);
+    for (std::size_t i = 0; i < n; ++i) {
+      for (Eigen::Index j = 0; j < 3; ++j) x[j] = rho * x[j] + std::sqrt(1 - rho * rho) * normal(random);
+      out.push_back(x);
+    }
+    return out;
+  };
+  EXPECT_NEAR(mc::dependence_factor(sequence(0.8, 200000)), 9.0, 0.3);
+  EXPECT_NEAR(mc::dependence_factor(sequence(0.0, 200000)), 1.0, 0.02);
+  std::vector<Eigen::VectorXd> alternating, constant;
+  for (int i = 0; i < 10; ++i) {
+    alternating.push_back(Eigen::Vector3d(1, -2, 0.5) * (i % 2 ? 1.0 : -1.0));
+    constant.push_back(Eigen::Vector3d(0.3, -0.2, 0.1));
+  }
+  EXPECT_DOUBLE_EQ(mc::dependence_factor(alternating), 1.0);
+  EXPECT_DOUBLE_EQ(mc::dependence_factor(constant), 10.0);
+  EXPECT_DOUBLE_EQ(mc::dependence_factor({Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(1, 0, 0)}), 1.0);
+  EXPECT_DOUBLE_EQ(mc::dependence_factor(std::vector<Eigen::VectorXd>(5, Eigen::VectorXd::Zero(3))), 1.0);
+}
+
+// A push whose wrist carries a smooth model error (the arm's reaction) is stated with less
+// confidence than the same push with white noise alone: its misfits run on from sample to
+// sample, and the temperature says so.
+TEST(Locate, ASmoothModelErrorTempersTheLinkProbabilities) {
+  const mm::Model model = load("ur5");
+  const double sigma = 0.05;
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  const auto white = forearm_push(model, sigma, 5, [](double, Eigen::Index) { return 0.0; });
+  const auto smooth = forearm_push(model, sigma, 5, [sigma](double k, Eigen::Index j) {
+    return (j % 2 ? -3.0 : 3.0) * sigma * std::sin(M_PI * k / 40.0);
+  });
+  const mc::Location a = locator.locate(white, 2, 6, mc::LinkChoice::most_probable);
+  const mc::Location b = locator.locate(smooth, 2, 6, mc::LinkChoice::most_probable);
+  EXPECT_LT(a.temperature, 2.0);
+  EXPECT_GT(b.temperature, 3.0);
+}
+
 // The end rows name the link their probabilities favour: over pushes off the axis of links 3 to
 // 6 of the UR5 with noise, the chosen link is the candidate of the highest probability, and it
 // is the pushed one.

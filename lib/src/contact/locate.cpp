@@ -286,7 +286,7 @@ Locator::Candidates Locator::candidates(int body, int around) const {
 }
 
 double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
-                           const Eigen::Vector3d& point) {
+                           const Eigen::Vector3d& point, std::vector<Eigen::VectorXd>* misfits) {
   // Alternating least squares from the principal direction of the per-sample forces: the
   // magnitudes for the direction (one division each), then the direction for the magnitudes
   // (a 3 x 3 system). A handful of rounds settle it: the start is already the direction of
@@ -330,7 +330,32 @@ double Locator::point_cost(const std::vector<Kinematics>& kin, const std::vector
     if (!(next.norm() > 0)) break;
     direction = next.normalized();
   }
+  if (misfits) {
+    misfits->resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::VectorXd& weight = weight_of(*fit[i]);
+      jacobian_transpose(kin[i], body, point, weight, JT_);
+      const double lever2 = direction.dot(normals_[i] * direction);
+      const double magnitude = lever2 > 0 ? -direction.dot(projections_[i]) / lever2 : 0.0;
+      (*misfits)[i] = weight.cwiseProduct(fit[i]->r) + magnitude * (JT_ * direction);
+    }
+  }
   return std::max(0.0, cost);
+}
+
+double dependence_factor(const std::vector<Eigen::VectorXd>& misfits) {
+  // An AR(1) reading of their dependence: n samples weigh as n (1 - rho) / (1 + rho)
+  // independent ones, at least one.
+  const std::size_t n = misfits.size();
+  if (n < 3) return 1;
+  double lagged = 0, total = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    total += misfits[i].squaredNorm();
+    if (i + 1 < n) lagged += misfits[i].dot(misfits[i + 1]);
+  }
+  if (!(total > 0)) return 1;
+  const double rho = std::clamp(lagged / total, 0.0, 1.0);
+  return std::min((1 + rho) / std::max(1 - rho, 1e-12), static_cast<double>(n));
 }
 
 void candidate_probabilities(std::vector<CandidateFit>& candidates, double observations, double noise_scale,
@@ -452,6 +477,12 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     const double score = fits[i].cost + options_.penalty_per_unknown * scale * fits[i].unknowns;
     if (score < best_score) best_score = score, chosen = i;  // ties: the more proximal body
   }
+  // The likelihood is tempered by the dependence of what the best fit leaves along the samples
+  // (dependence_factor), on top of the temperature a labelled campaign taught.
+  std::vector<Eigen::VectorXd> misfits;
+  point_cost(kin, fit, fits[chosen].body, (*fits[chosen].points)[fits[chosen].best], &misfits);
+  const double temperature = options_.link_temperature * dependence_factor(misfits);
+  out.temperature = temperature;
   if (choice == LinkChoice::proximal_accepted)
     for (std::size_t i = 0; i < fits.size(); ++i) {
       const double dof = static_cast<double>(fit.size()) * nq - fits[i].unknowns;
@@ -473,12 +504,12 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     if (c.point_unknown) {
       // ln mean exp(-(cost_p - cost) / 2sT): the best point contributes 1, so no underflow.
       double share = 0;
-      for (double cost : g.costs) share += std::exp(-0.5 * (cost - g.cost) / (scale * options_.link_temperature));
+      for (double cost : g.costs) share += std::exp(-0.5 * (cost - g.cost) / (scale * temperature));
       c.log_point_share = std::log(share / static_cast<double>(g.costs.size()));
     }
     out.candidates.push_back(c);
   }
-  candidate_probabilities(out.candidates, static_cast<double>(fit.size()) * nq, scale, options_.link_temperature);
+  candidate_probabilities(out.candidates, static_cast<double>(fit.size()) * nq, scale, temperature);
   if (choice == LinkChoice::most_probable) {
     chosen = 0;
     for (std::size_t i = 1; i < fits.size(); ++i)

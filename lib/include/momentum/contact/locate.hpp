@@ -89,11 +89,13 @@ struct LocatorOptions {
   // The confidence the reported link set reaches (link_set), (0, 1].
   double link_confidence = 0.9;
   // The temperature of the candidates' probabilities, > 0: the log evidence of each body is
-  // divided by it (CandidateFit::probability). The residuals of the samples of one contact are
-  // not independent (the observer's low pass, the model's errors that the arm's motion and
+  // divided by it times the dependence the contact's own misfits show (dependence_factor;
+  // together Location::temperature). The residuals of the samples of one contact are not
+  // independent (the observer's low pass, the model's errors that the arm's motion and
   // reaction make smooth), so the Gaussian likelihood of white noise overstates what they
-  // tell; 1 is that likelihood, a larger value what a labelled campaign shows
-  // (mo-calibrate --classes: thresholds.<signal>.identify.link_temperature).
+  // tell; 1 leaves the misfits' dependence alone to temper it, a larger value is what a
+  // labelled campaign shows beyond it (mo-calibrate --classes:
+  // thresholds.<signal>.identify.link_temperature).
   double link_temperature = 1;
   bool IsValid(std::string* why) const;
 };
@@ -159,8 +161,20 @@ struct Location {
   double impulse = 0;                                // integral of |force| over the samples, N s
   double chi2 = 0;                                   // weighted residual sum of squares per degree of freedom
   double noise_scale = 1;                            // the costs' variance scale (>= 1, in calibrated noise units^2)
+  // The temperature of the candidates' probabilities: LocatorOptions::link_temperature times
+  // the dependence of the best fit's misfits along the samples (dependence_factor), >= 1.
+  double temperature = 1;
   std::vector<CandidateFit> candidates;              // every body fitted, proximal first
 };
+
+// How many times fewer independent samples `misfits` (one vector per sample, in order) are
+// worth than their count: (1 + rho) / (1 - rho) for rho the lag-1 correlation of the vectors
+// (sum of m_i . m_i+1 over sum of |m_i|^2), clamped to [0, 1), at most their count. 1 for
+// fewer than 3 samples or all zero. The samples of one contact are not independent draws of
+// the calibrated noise: what a fit leaves (the model's errors in the arm's motion and in its
+// reaction, smoothed by the observer) runs on from sample to sample, and the white-noise
+// likelihood would state links with a confidence the data do not hold.
+double dependence_factor(const std::vector<Eigen::VectorXd>& misfits);
 
 // The smallest set of candidate links that holds `chosen` (the reported link; 0: none) and
 // whose probabilities (CandidateFit::probability) sum to at least `confidence` (0 < confidence
@@ -174,7 +188,7 @@ LinkSet link_set(const std::vector<CandidateFit>& candidates, double confidence,
 
 // CandidateFit::probability from the costs and unknowns of `candidates` over `observations`
 // residual values, with the costs' variance scale `noise_scale` (> 0) and the temperature
-// `temperature` (> 0, LocatorOptions::link_temperature). Exposed for tests.
+// `temperature` (> 0, Location::temperature). Exposed for tests.
 void candidate_probabilities(std::vector<CandidateFit>& candidates, double observations, double noise_scale,
                              double temperature = 1);
 
@@ -214,9 +228,10 @@ class Locator {
                           Eigen::MatrixXd& JT) const;
   const Eigen::VectorXd& weight_of(const ResidualSample& s) const { return s.weight.size() ? s.weight : weight_; }
   // Weighted residual sum of squares at one point of the best forces of one direction (world)
-  // and a magnitude per sample of `fit`.
+  // and a magnitude per sample of `fit`; with `misfits`, also each sample's weighted misfit
+  // W r + W J^T F (nq).
   double point_cost(const std::vector<Kinematics>& kin, const std::vector<const ResidualSample*>& fit, int body,
-                    const Eigen::Vector3d& point);
+                    const Eigen::Vector3d& point, std::vector<Eigen::VectorXd>* misfits = nullptr);
   Eigen::Vector3d solve_force(const Kinematics& k, const ResidualSample& s, int body, const Eigen::Vector3d& point,
                               Eigen::Matrix3d* covariance, double* cost);
 
