@@ -10,13 +10,12 @@
 
 namespace friction_fit = momentum::friction_fit;
 namespace mf = momentum::friction;
+using friction_fit::testing::kPaperObserver;
 using friction_fit::testing::kTable1;
 using friction_fit::testing::make_synthetic;
 using friction_fit::testing::SyntheticOptions;
 
 namespace {
-
-const momentum::observer::Gains kPaperObserver{50.0, 0.2, 0.0};  // the paper arm's profile
 
 double value(const mf::Parameters<double>& p, int i) {
   double a[mf::Parameters<double>::kSize];

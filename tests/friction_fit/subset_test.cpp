@@ -11,24 +11,11 @@
 
 namespace friction_fit = momentum::friction_fit;
 namespace mf = momentum::friction;
+using friction_fit::testing::kPaperObserver;
 using friction_fit::testing::kTable1;
+using friction_fit::testing::long_motion;
 using friction_fit::testing::make_synthetic;
 using friction_fit::testing::SyntheticOptions;
-
-namespace {
-
-const momentum::observer::Gains kPaperObserver{50.0, 0.2, 0.0};  // the paper arm's profile
-
-// 100 s of the paper's motion at 125 Hz, with the fit's usual noise levels.
-SyntheticOptions long_motion(std::uint64_t seed) {
-  SyntheticOptions so;
-  so.samples = 12500;
-  so.r_noise = 0.2;
-  so.seed = seed;
-  return so;
-}
-
-}  // namespace
 
 TEST(SearchSubset, ShortDataAreSearchedWhole) {
   const auto data = make_synthetic(kTable1[0], kPaperObserver, SyntheticOptions{});

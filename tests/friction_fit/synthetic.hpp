@@ -92,6 +92,18 @@ inline Synthetic make_synthetic(const friction::Parameters<double>& truth,
   return s;
 }
 
+// The paper arm's observer (its profile): second order, K1 = 50, K2 = 0.2 1/s.
+inline const observer::Gains kPaperObserver{50.0, 0.2, 0.0};
+
+// 100 s of the paper's motion at 125 Hz, with the fit's usual noise levels.
+inline SyntheticOptions long_motion(std::uint64_t seed) {
+  SyntheticOptions so;
+  so.samples = 12500;
+  so.r_noise = 0.2;
+  so.seed = seed;
+  return so;
+}
+
 inline double rms_difference(const std::vector<double>& a, const std::vector<double>& b) {
   double sum = 0;
   for (std::size_t k = 0; k < a.size(); ++k) sum += (a[k] - b[k]) * (a[k] - b[k]);
