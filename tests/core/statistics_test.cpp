@@ -53,11 +53,11 @@ TEST(WhiteNoise, QuantisedNoiseIsNotRoundedToTheStep) {
   EXPECT_NEAR(estimate(quantised), with_steps, 0.02 * with_steps);
 }
 
-// RunningMedian keeps a sorted copy between updates and merges the pushes into it: its median
-// must be the one an nth_element over the last N values gives (the value selected afresh), bit
-// for bit, whether it is updated after every push, every few, or after more pushes than the
-// window holds; with tied values, while the window fills, and with a NaN in the window (then
-// selected as before).
+// RunningMedian selects about its last median: its median must be the one an nth_element over
+// the last N values gives (the value selected afresh), bit for bit, whether it is updated after
+// every push (the middle beside the last median), every few, or after more pushes than the
+// window holds (the middle moved far: selected afresh); with tied values, while the window
+// fills, and with a NaN in the window (then selected with nth_element).
 TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
   constexpr int kN = 32;
   auto selected = [](const std::vector<double>& history) {

@@ -120,3 +120,36 @@ TEST(DisturbanceFilter, JetIsLinearInTheInput) {
     ASSERT_NEAR(yj.v[1], y1, 1e-12);  // d/d offset
   }
 }
+
+// The coefficients found in the cache are those discretizing afresh gives, bit for bit: a
+// filter fed the intervals of t = k / 1000 rounded (a few values alternating, and more than
+// the cache's four slots over the run) gives the output of a state advanced with coefficients
+// discretized anew at every sample. The cache finds exactly the intervals it holds, the four
+// last ones filled, and not an interval one ulp away.
+TEST(IntervalCache, CoefficientsAreThoseDiscretizedAfresh) {
+  const mo::Gains gains{50.0, 5.0, 0.0};
+  mo::DisturbanceFilter<double> filter(gains);
+  mo::FilterState<double> reference;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  double t_previous = 0, x_previous = noise(rng);
+  filter.step(x_previous, 0.0);
+  for (int k = 1; k < 20000; ++k) {
+    const double t = k * 0.001 + 1e4;  // far from 0: dt varies in more ulps
+    const double x = noise(rng);
+    const mo::FilterCoefficients c = mo::discretize(gains, t - t_previous);
+    reference.advance(c, x_previous, x);
+    ASSERT_EQ(filter.step(x, t - t_previous), reference.output(c)) << "sample " << k;
+    t_previous = t;
+    x_previous = x;
+  }
+  mo::IntervalCache<int> cache;
+  EXPECT_EQ(cache.find(0.001), nullptr);
+  for (int k = 1; k <= 5; ++k) cache.insert(0.001 * k) = k;
+  EXPECT_EQ(cache.find(0.001), nullptr);  // the oldest of five went
+  for (int k = 2; k <= 5; ++k) {
+    ASSERT_NE(cache.find(0.001 * k), nullptr);
+    EXPECT_EQ(*cache.find(0.001 * k), k);
+  }
+  EXPECT_EQ(cache.find(std::nextafter(0.002, 1.0)), nullptr);
+}

@@ -270,7 +270,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     }
     if (status != SampleStatus::invalid) {
       // The signal check learns its tolerance from plain intervals between good rows only.
-      if (status == SampleStatus::ok && have_good && !after_left_out)
+      if (checking && status == SampleStatus::ok && have_good && !after_left_out)
         check.learn(good_t, good_q.data(), good_dq.data(), good_tau.data(), t, q.data(), dq.data(), tau.data());
       good_t = t;
       good_q = q;

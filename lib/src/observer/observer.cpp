@@ -119,7 +119,7 @@ ObserverOptions observer_options_from_json(const nlohmann::json& section,
 }
 
 ResidualObserver::ResidualObserver(std::vector<Gains> gains, const friction::FrictionModel* friction)
-    : gains_(std::move(gains)), coefficients_(gains_.size()), state_(gains_.size()) {
+    : gains_(std::move(gains)), state_(gains_.size()) {
   for (std::size_t j = 0; j < gains_.size(); ++j) {
     same_gains_as_previous_.push_back(j > 0 && gains_[j].k1 == gains_[j - 1].k1 &&
                                       gains_[j].k2 == gains_[j - 1].k2 &&
@@ -158,14 +158,17 @@ void ResidualObserver::step(double dt, const double* p, const double* u, const d
   }
   const double inv_dt = 1.0 / dt;
   // Coefficients depend on the gains and dt only: joints with the gains of the joint before
-  // share them, and a dt equal to the previous one (bit for bit) reuses them.
-  const bool same_dt = dt == coefficients_dt_;
-  coefficients_dt_ = dt;
+  // share them, and an interval seen lately (bit for bit) finds them in the cache.
+  const std::vector<FilterCoefficients>* coefficients = coefficients_.find(dt);
+  if (!coefficients) {
+    std::vector<FilterCoefficients>& fresh = coefficients_.insert(dt);
+    fresh.resize(n);
+    for (std::size_t j = 0; j < n; ++j)
+      fresh[j] = same_gains_as_previous_[j] ? fresh[j - 1] : discretize(gains_[j], dt);
+    coefficients = &fresh;
+  }
   for (std::size_t j = 0; j < n; ++j) {
-    if (!same_dt) {
-      coefficients_[j] = same_gains_as_previous_[j] ? coefficients_[j - 1] : discretize(gains_[j], dt);
-    }
-    const FilterCoefficients& c = coefficients_[j];
+    const FilterCoefficients& c = (*coefficients)[j];
     Joint& s = state_[j];
     // tau_d = u - dp/dt over the interval, with u linear and p linear between the samples.
     const double dp = (p[j] - s.p) * inv_dt;

@@ -132,18 +132,19 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
     const double d = trend.departure(J.last_dq_step, dq_a[j], dq_b[j]);
     double tol = velocity_tolerance(index) * trend.noise_ratio;
     if (std::fabs(d) <= tol || !std::isfinite(tol)) continue;
-    // The scales are recomputed every 64 intervals (a median of 128 values costs about as much
-    // as the rest of a row): brought up to date before a row is judged on them.
-    J.abs_velocity_curvature.update();
-    J.abs_torque_curvature.update();
-    tol = velocity_tolerance(index) * trend.noise_ratio;
-    if (std::fabs(d) <= tol) continue;
+    // Beyond the scale as last computed (see learn()): judged on it brought up to date.
+    if (refresh(J.abs_velocity_curvature)) {
+      tol = velocity_tolerance(index) * trend.noise_ratio;
+      if (std::fabs(d) <= tol) continue;
+    }
     // The velocity left its trend: by a torque the motor shows, or one too small to matter?
     if (!have_mass) {
       mass_matrix(model_, data_, Eigen::Map<const Eigen::VectorXd>(q_b, model_.nq), mass_);
       have_mass = true;
     }
     const double implied = mass_(index, index) * std::fabs(d) / dt;
+    // The motor torque's scale is needed here only: computed on demand, not on a schedule.
+    if (J.abs_torque_curvature.pushes_since_update() > 0) J.abs_torque_curvature.update();
     const double motor = trend.departure(J.last_tau_step, tau_a[j], tau_b[j]);
     const double motor_tol = torque_tolerance(index) * trend.noise_ratio;
     if (!(implied > std::fabs(motor) + motor_tol)) continue;
@@ -153,6 +154,14 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
     return true;
   }
   return false;
+}
+
+bool SignalCheck::refresh(core::RunningMedian<kWindow>& scale) {
+  // At rest on quantised signals a scale may be 0 and many rows beyond it (then judged on the
+  // quantisation floor): recomputed at most every kRefreshJudged pushes, the cost stays bounded.
+  if (scale.pushes_since_update() < kRefreshJudged) return false;
+  scale.update();
+  return true;
 }
 
 bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, const double* dq_b, double t_c,
@@ -171,12 +180,12 @@ bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, 
 }
 
 bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
-                           const double* dq_b, double typical_dt, std::string* why) const {
+                           const double* dq_b, double typical_dt, std::string* why) {
   const double dt = t_b - t_a;
   // As tolerance() stretches the scale for the interval.
   const double stretch = typical_dt > 0 ? std::max(1.0, dt / typical_dt) : 1.0;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
-    const Joint& J = joints_[j];
+    Joint& J = joints_[j];
     const int index = static_cast<int>(j);
     const double moved = q_b[j] - q_a[j];
     // Faster than the drive can move, whatever the velocity signal says.
@@ -191,6 +200,9 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     // Within the learnt scale alone (which the tolerance is at least, the quantisation floor
     // being the other candidate of its max): agreed, without the floor's square root.
     if (std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.value() * stretch)) continue;
+    // Beyond the scale as last computed (see learn()): judged on it brought up to date.
+    if (refresh(J.abs_error) && std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.value() * stretch))
+      continue;
     const double tol = tolerance(index, dt, typical_dt);
     if (!(std::fabs(e) <= tol)) {
       if (why) *why = joint_name(index) + "'s position moved " + core::short_number(moved) + ", its velocity says " +
@@ -234,19 +246,19 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   last_t_ = t_b;
   last_dt_ = dt;
   ++intervals_;
-  // The median of the window moves slowly: recomputing it every 8 intervals (and through the
-  // warm-up) keeps the hot path cheap. Those of the trends every 64, and when a row would be
-  // judged on them (velocity_jumps()).
-  if (intervals_ <= kWarmUp || ++since_update_ >= 8) {
+  // The medians of the windows move slowly: recomputed every kRefresh intervals (and through
+  // the warm-up), a median of 128 values costs a few hundred instructions a row instead of
+  // thousands. A row beyond a scale so computed is judged on it brought up to date (refresh()),
+  // so a row is never refused on a stale scale; one within it may be accepted on a scale up to
+  // kRefresh intervals old, half the window, where the scale has just fallen (an arm coming to
+  // rest): a tolerance then still that of the motion.
+  if (intervals_ <= kWarmUp || ++since_update_ >= kRefresh) {
     since_update_ = 0;
     for (Joint& J : joints_) J.abs_error.update();
   }
-  if (on_trend && (curvatures_ <= static_cast<std::uint64_t>(kWarmUp) || ++since_trend_update_ >= 64)) {
+  if (on_trend && (curvatures_ <= static_cast<std::uint64_t>(kWarmUp) || ++since_trend_update_ >= kRefresh)) {
     since_trend_update_ = 0;
-    for (Joint& J : joints_) {
-      J.abs_velocity_curvature.update();
-      J.abs_torque_curvature.update();
-    }
+    for (Joint& J : joints_) J.abs_velocity_curvature.update();
   }
 }
 

@@ -2,7 +2,7 @@
 // Robust statistics shared by the fitters and the streams.
 
 #include <algorithm>
-#include <cstring>
+#include <limits>
 #include <vector>
 
 namespace momentum::core {
@@ -27,108 +27,127 @@ double white_noise_from_second_differences(std::vector<double>& magnitudes);
 // the jitter it is there to judge. push() records; update() recomputes, so a caller on a hot
 // path may refresh less often than it pushes.
 //
-// update() keeps a sorted copy of the window from one call to the next when it is called every
-// few pushes: it moves into the copy each value pushed since in place of one that left (two
-// binary searches and a block move of the values between them), where selecting the median afresh (an nth_element
-// over N values) costs several times that (the signal check's windows of 128, refreshed every 8
-// pushes, made 35% of mo-observe's instructions). After more pushes than a quarter of the
-// window it selects afresh. The median is the same value, bit for bit, either way: the middle
-// element of the sorted window, or the mean of the two middle ones. A NaN has no place in a
-// sorted copy: with one in the window, update() selects with nth_element too.
+// update() selects the median about the last one: the window splits into the values below it
+// and the rest (one branch-free pass), and the middle ranks are then selected on their side
+// alone: as the few largest of the one side or the few smallest of the other when the middle
+// moved by at most kNear ranks since (it moves little between frequent updates), with an
+// nth_element over that side otherwise. That costs a fraction of an nth_element over the whole
+// window (the signal check's windows of 128 made a third of mo-observe's instructions). With a
+// NaN in the window it selects with nth_element over the window. The median is the same value,
+// bit for bit, either way: the middle element of the sorted window, or the mean of the two
+// middle ones.
 template <int N>
 class RunningMedian {
  public:
   static_assert(N > 0);
   void push(double value) {
-    if (count_ == N) {
-      const double old = window_[next_];
-      if (old != old) {
-        --nans_;
-      } else if (synced_ && pushed_ < kIncremental) {
-        // Pushed before the last update (at most N pushes ago): it is in the sorted copy.
-        removed_[removed_count_++] = old;
-      }
-    }
+    if (count_ == N && window_[next_] != window_[next_]) --nans_;
     window_[next_] = value;
     if (value != value) ++nans_;
     next_ = (next_ + 1) % N;
     if (count_ < N) ++count_;
-    if (++pushed_ > kIncremental) synced_ = false;
+    ++pushed_;
   }
   // The median of the window (for an even count, the mean of the two middle values); 0 before
   // the first push.
   double update() {
-    if (count_ == 0) return median_;
-    if (nans_ > 0 || (!synced_ && pushed_ > kIncremental)) return select();
-    if (!synced_) {
-      std::copy(window_, window_ + count_, sorted_);
-      std::sort(sorted_, sorted_ + count_);
-    } else {
-      int size = count_ - pushed_ + removed_count_;  // as of the last update
-      for (int k = 0; k < pushed_; ++k) {
-        const double value = window_[(next_ - pushed_ + k + N) % N];
-        if (k >= removed_count_) {
-          // The window was still filling: one more value.
-          double* at = std::upper_bound(sorted_, sorted_ + size, value);
-          std::memmove(at + 1, at, static_cast<std::size_t>(sorted_ + size - at) * sizeof(double));
-          *at = value;
-          ++size;
-          continue;
-        }
-        // One value leaves (the first equal to it: equal values are interchangeable) and one
-        // enters: only the values between the two places move, by one.
-        double* out = std::lower_bound(sorted_, sorted_ + size, removed_[k]);
-        if (value >= *out) {
-          double* in = std::upper_bound(out, sorted_ + size, value);
-          std::memmove(out, out + 1, static_cast<std::size_t>(in - out - 1) * sizeof(double));
-          in[-1] = value;
-        } else {
-          double* in = std::upper_bound(sorted_, out, value);
-          std::memmove(in + 1, in, static_cast<std::size_t>(out - in) * sizeof(double));
-          *in = value;
-        }
-      }
-    }
-    synced_ = true;
     pushed_ = 0;
-    removed_count_ = 0;
-    const int mid = count_ / 2;
-    median_ = sorted_[mid];
-    if (count_ % 2 == 0) median_ = 0.5 * (median_ + sorted_[mid - 1]);
+    if (count_ == 0) return median_;
+    const int high = count_ / 2;                         // rank of the upper middle value
+    const int low = count_ % 2 == 0 ? high - 1 : high;   // and of the lower one
+    if (nans_ == 0) return select_about_last(low, high);
+    double sorted[N];
+    std::copy(window_, window_ + count_, sorted);
+    std::nth_element(sorted, sorted + high, sorted + count_);
+    median_ = sorted[high];
+    if (low != high) median_ = 0.5 * (median_ + *std::max_element(sorted, sorted + high));
     return median_;
   }
   double value() const { return median_; }  // as of the last update()
   bool full() const { return count_ == N; }
+  int pushes_since_update() const { return pushed_; }
 
  private:
-  // Pushes between updates up to which the sorted copy is kept (each costs a block move of
-  // about N/3 values; selecting afresh costs about 30 N).
-  static constexpr int kIncremental = N / 4 > 1 ? N / 4 : 1;
+  // Ranks the middle may move between updates and still be found beside the last median.
+  static constexpr int kNear = N / 8 > 4 ? N / 8 : 4;
 
-  double select() {
-    double sorted[N];
-    std::copy(window_, window_ + count_, sorted);
-    const int mid = count_ / 2;
-    std::nth_element(sorted, sorted + mid, sorted + count_);
-    median_ = sorted[mid];
-    if (count_ % 2 == 0) median_ = 0.5 * (median_ + *std::max_element(sorted, sorted + mid));
-    synced_ = false;
-    pushed_ = 0;
-    removed_count_ = 0;
+  // The mean of the values of ranks low and high (high - low <= 1) of the window, NaN-free.
+  double select_about_last(int low, int high) {
+    double below[N], rest[N];
+    int n_below = 0, n_rest = 0;
+    const double pivot = median_;
+    double largest_below = -std::numeric_limits<double>::infinity();
+    double smallest_rest = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < count_; ++k) {
+      const double v = window_[k];
+      below[n_below] = v;
+      rest[n_rest] = v;
+      const bool less = v < pivot;
+      n_below += less;
+      n_rest += !less;
+      largest_below = less ? std::max(largest_below, v) : largest_below;
+      smallest_rest = less ? smallest_rest : std::min(smallest_rest, v);
+    }
+    double extreme[kNear];
+    double lower, upper;
+    if (high < n_below) {
+      // Both below the split: among the n_below - low largest values there.
+      const int k = n_below - low;
+      if (k <= kNear) {
+        keep_first(below, n_below, k, extreme, [](double a, double b) { return a > b; });
+        upper = extreme[n_below - 1 - high];
+        lower = extreme[n_below - 1 - low];
+      } else {
+        std::nth_element(below, below + high, below + n_below);
+        upper = below[high];
+        lower = low == high ? upper : *std::max_element(below, below + high);
+      }
+    } else if (low >= n_below) {
+      // Both above: among the high - n_below + 1 smallest values there.
+      const int k = high - n_below + 1;
+      if (k <= kNear) {
+        keep_first(rest, n_rest, k, extreme, [](double a, double b) { return a < b; });
+        lower = extreme[low - n_below];
+        upper = extreme[high - n_below];
+      } else {
+        std::nth_element(rest, rest + (high - n_below), rest + n_rest);
+        upper = rest[high - n_below];
+        lower = low == high ? upper : *std::max_element(rest, rest + (high - n_below));
+      }
+    } else {
+      // Astride the split (low = n_below - 1, high = n_below).
+      lower = largest_below;
+      upper = smallest_rest;
+    }
+    median_ = low == high ? upper : 0.5 * (upper + lower);
     return median_;
+  }
+
+  // The k values of v[0..n) that come first by `before`, in that order, into out[0..k).
+  template <class Before>
+  static void keep_first(const double* v, int n, int k, double* out, Before before) {
+    int size = 0;
+    for (int i = 0; i < n; ++i) {
+      const double x = v[i];
+      int at;
+      if (size < k) {
+        at = size++;
+      } else if (before(x, out[k - 1])) {
+        at = k - 1;
+      } else {
+        continue;
+      }
+      for (; at > 0 && before(x, out[at - 1]); --at) out[at] = out[at - 1];
+      out[at] = x;
+    }
   }
 
   double window_[N] = {};
   int count_ = 0;
   int next_ = 0;
   double median_ = 0;
-  // The sorted copy of the window as of the last update(), when synced_.
-  double sorted_[N] = {};
-  bool synced_ = false;
   int pushed_ = 0;  // pushes since the last update()
-  double removed_[N] = {};  // values of the sorted copy that left the window since
-  int removed_count_ = 0;
-  int nans_ = 0;  // NaN values in the window
+  int nans_ = 0;    // NaN values in the window
 };
 
 // The same median of the last N values as RunningMedian (bit for bit: the same element, the same

@@ -23,6 +23,7 @@
 // Coefficients depend only on the gains and dt (doubles); states and inputs are templated.
 #pragma once
 
+#include <algorithm>
 #include <string>
 
 namespace momentum::observer {
@@ -50,6 +51,35 @@ struct FilterCoefficients {
 // Exact first-order-hold coefficients for gains `gains` (assumed valid) over an interval of
 // dt seconds (> 0, finite).
 FilterCoefficients discretize(const Gains& gains, double dt);
+
+// Values computed for the last few intervals (the filter coefficients), found by the interval
+// bit for bit. The intervals of a steady rate are not one value: t = k / rate rounds, so dt is
+// 1/rate plus a few ulps of t, 2 or 3 values alternating in any stretch of a stream (about 20
+// over an hour at 1 kHz). With one slot most rows would discretize again; with four nearly
+// every row finds its coefficients, and they are those discretizing afresh gives, bit for bit.
+template <class T, int Slots = 4>
+class IntervalCache {
+ public:
+  IntervalCache() { std::fill(dt_, dt_ + Slots, -1.0); }
+  // What is stored for exactly dt (s), or nullptr.
+  T* find(double dt) {
+    for (int k = 0; k < Slots; ++k)
+      if (dt_[k] == dt) return &value_[k];
+    return nullptr;
+  }
+  // The slot for dt, in place of the one filled longest ago; the caller fills it.
+  T& insert(double dt) {
+    const int k = next_;
+    next_ = (next_ + 1) % Slots;
+    dt_[k] = dt;
+    return value_[k];
+  }
+
+ private:
+  double dt_[Slots];
+  T value_[Slots] = {};
+  int next_ = 0;
+};
 
 // The filter's state for one joint (two numbers). Starts at rest (output 0).
 template <class T>
@@ -86,13 +116,11 @@ class DisturbanceFilter {
       previous_ = x;
       return T(0);
     }
-    if (dt != dt_) {  // a log with a steady rate mostly repeats dt exactly
-      coefficients_ = discretize(gains_, dt);
-      dt_ = dt;
-    }
-    state_.advance(coefficients_, previous_, x);
+    const FilterCoefficients* c = coefficients_.find(dt);
+    if (!c) c = &(coefficients_.insert(dt) = discretize(gains_, dt));
+    state_.advance(*c, previous_, x);
     previous_ = x;
-    return state_.output(coefficients_);
+    return state_.output(*c);
   }
 
   const Gains& gains() const { return gains_; }
@@ -100,8 +128,7 @@ class DisturbanceFilter {
  private:
   Gains gains_;
   FilterState<T> state_;
-  FilterCoefficients coefficients_;
-  double dt_ = -1;  // the dt coefficients_ are for
+  IntervalCache<FilterCoefficients> coefficients_;
   T previous_ = T(0);
   bool started_ = false;
 };

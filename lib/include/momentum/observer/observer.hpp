@@ -119,8 +119,7 @@ class ResidualObserver {
   };
   std::vector<Gains> gains_;
   std::vector<bool> same_gains_as_previous_;  // joints sharing coefficients with joint j-1
-  std::vector<FilterCoefficients> coefficients_;  // per joint, for coefficients_dt_
-  double coefficients_dt_ = -1;
+  IntervalCache<std::vector<FilterCoefficients>> coefficients_;  // per joint
   std::vector<friction::JointFriction<double>> friction_;
   std::vector<Joint> state_;
   bool started_ = false;

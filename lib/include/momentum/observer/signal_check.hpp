@@ -69,6 +69,10 @@ class SignalCheck {
   static constexpr int kWindow = 128;
   // Intervals needed before the disagreement test applies (the limits apply from the start).
   static constexpr int kWarmUp = 16;
+  // Intervals between recomputations of the running scales (see learn()); and the fewest
+  // pushes since the last for which a row beyond a scale has it recomputed before judgement.
+  static constexpr int kRefresh = 64;
+  static constexpr int kRefreshJudged = 8;
 
   // `model` must outlive the check (its joint limits are read).
   SignalCheck(const model::Model& model, const SignalCheckOptions& options);
@@ -85,8 +89,9 @@ class SignalCheck {
   // the interval (`typical_dt`: the stream's median step, s, > 0), or a position change faster
   // than the velocity limit allows. Before ready(), only the velocity limit is tested. When
   // they disagree and `why` is non-null, it says on which joint and by how much.
+  // Not const: a joint beyond its scale as last computed has it brought up to date first.
   bool disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
-                const double* dq_b, double typical_dt, std::string* why) const;
+                const double* dq_b, double typical_dt, std::string* why);
 
   // Learns from an accepted interval a -> b: its |e| per joint enter the running scale, and,
   // when it continues the last interval learnt, the second differences of position and
@@ -136,6 +141,8 @@ class SignalCheck {
   };
   // Tolerance of the motor torque's departure from its trend one step on, Nm.
   double torque_tolerance(int j) const;
+  // Recomputes `scale` when kRefreshJudged values or more came in since it was last: whether it did.
+  static bool refresh(core::RunningMedian<kWindow>& scale);
 
   const model::Model& model_;
   model::Data data_;           // scratch of the mass matrix
