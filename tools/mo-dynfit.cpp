@@ -3,6 +3,7 @@
 // the data determine.
 #include <chrono>
 #include <cstdio>
+#include <string>
 
 #include "momentum/cli/tool.hpp"
 #include "momentum/core/error.hpp"
@@ -65,6 +66,11 @@ int main(int argc, char** argv) {
   app.add_option("--friction-probe-seconds", options.identify.friction_probe_seconds,
                  "seconds of log the friction-model probe runs over (default 0: all)")
       ->type_name("S");
+  app.add_option("--max-samples", options.identify.max_samples,
+                 "fit at most N samples of the logs, in stretches spread evenly over them; 0: all (default " +
+                     std::to_string(options.identify.max_samples) + ")")
+      ->type_name("N")
+      ->check(cli::whole_number());  // an unsigned option would take -1 as 2^64 - 1
   options.identify.threads = 2;
   app.add_option("--threads", options.identify.threads,
                  "threads: 2 (default) fits the friction probe beside the fit; the results do not depend on it")

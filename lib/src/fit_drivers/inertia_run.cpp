@@ -1,5 +1,9 @@
 #include "momentum/fit_drivers/inertia_run.hpp"
 
+#include <filesystem>
+#include <string>
+#include <system_error>
+
 #include <Eigen/Core>
 
 #include "momentum/core/error.hpp"
@@ -26,10 +30,39 @@ InertiaRunResult run_inertia_fit(const model::Profile& profile, const std::vecto
     }
   }
   inertia::Identifier identifier(nominal, options.identify);
-  for (const auto& path : inputs) inertia::add_log(*open(path), nominal, identifier);
-
   InertiaRunResult result;
   inertia::Report& report = result.report;
+  if (options.identify.max_samples > 0) {
+    // The sample budget spreads its stretches over all the logs, so their samples are counted
+    // first: reading rows is cheap next to fitting them. An input that cannot be read twice
+    // (standard input, a pipe) leaves every sample fitted.
+    for (const auto& path : inputs) {
+      std::error_code error;
+      if (path.empty() || path == "-" || !std::filesystem::is_regular_file(path, error)) {
+        report.budget_not_applied = (path.empty() || path == "-" ? std::string("standard input") : path) +
+                                    " cannot be read twice to count its samples";
+        break;
+      }
+    }
+    if (report.budget_not_applied.empty()) {
+      // The fit reads them again and reports their bad rows and warnings then, once.
+      const WarningSink warnings = set_warning_sink([](std::string_view) {});
+      const RowWarningSink rows = set_row_warning_sink([](std::string_view, std::string_view) {});
+      std::uint64_t samples = 0;
+      try {
+        for (const auto& path : inputs) samples += inertia::count_log(*open(path));
+      } catch (...) {
+        set_warning_sink(warnings);
+        set_row_warning_sink(rows);
+        throw;
+      }
+      set_warning_sink(warnings);
+      set_row_warning_sink(rows);
+      identifier.plan(samples);
+    }
+  }
+  for (const auto& path : inputs) inertia::add_log(*open(path), nominal, identifier);
+
   report.inputs = inputs;
   report.profile = profile.path.string();
   report.options = options.identify;

@@ -169,6 +169,9 @@ bool IdentifyOptions::IsValid(std::string* why) const {
   if (threads < 1) return invalid(why, "threads must be >= 1");
   if (!(friction_probe_seconds >= 0) || !std::isfinite(friction_probe_seconds))
     return invalid(why, "friction-probe seconds must be >= 0");
+  if (max_samples != 0 && max_samples < static_cast<std::uint64_t>(velocity_noise_samples))
+    return invalid(why, "the sample budget must be 0 (all) or at least the velocity-noise samples (" +
+                            std::to_string(velocity_noise_samples) + ")");
   return true;
 }
 
@@ -198,14 +201,24 @@ Identifier::Identifier(const model::Model& nominal, const IdentifyOptions& optio
   block_length_ = options_.block;
   count_from_.assign(static_cast<std::size_t>(n_), std::numeric_limits<double>::infinity());
   slow_.assign(static_cast<std::size_t>(n_), false);
+  // Thinned stretches are whole held-out periods, so that every kept stretch holds out its
+  // share and the segments held out are those of the whole logs, and at least 20 settling
+  // times of the filter long (the start of each does not count, settle_time_constants / K).
+  {
+    constexpr double kSettlingsPerStretch = 20;
+    const double period = options_.holdout_segment * std::max(options_.holdout_every, 1);
+    const double settle = options_.settle_time_constants / options_.filter_gain;
+    stretch_ = period * std::max(1.0, std::ceil(kSettlingsPerStretch * settle / period));
+  }
   if (options_.friction_probe && options_.fit_friction) {
     // A fit of its own (its rows restart where its joints pass its higher speed), fed every
-    // sample; only its normal equations are used.
+    // sample taken; only its normal equations are used.
     IdentifyOptions probe = options_;
     probe.min_speed = std::max(2 * options_.min_speed, 0.1);
     probe.friction_probe = false;
     probe.velocity_noise_draws = 0;
     probe.threads = 1;
+    probe.max_samples = 0;  // it is fed what this fit takes
     friction_probe_ = std::make_unique<Identifier>(nominal, probe);
     if (options_.threads > 1) probe_feed_ = std::make_unique<ProbeFeed>(*friction_probe_, n_);
   }
@@ -242,6 +255,11 @@ class Identifier::ProbeFeed {
     filling_.restart.push_back(kRestart);
     if (filling_.restart.size() >= kBatch) hand_over();
   }
+  void pass(double t) {
+    filling_.restart.push_back(kPass);
+    filling_.values.push_back(t);
+    if (filling_.restart.size() >= kBatch) hand_over();
+  }
   // Returns when the probe has seen every sample; rethrows what it threw.
   void drain() {
     hand_over();
@@ -255,9 +273,10 @@ class Identifier::ProbeFeed {
   // each, 200 a second at 1 kHz and K = 10), a batch of the 6-joint arm holds about 1.2 MB.
   static constexpr std::size_t kBatch = 1024;
   static constexpr std::size_t kQueued = 4;  // batches waiting at most (bounded memory)
-  static constexpr std::uint8_t kSample = 0, kRestart = 1, kSampleWithRegressor = 2;
+  static constexpr std::uint8_t kSample = 0, kRestart = 1, kSampleWithRegressor = 2, kPass = 3;
   struct Batch {
-    std::vector<std::uint8_t> restart;  // per entry: kRestart, or a sample (1 + 3 n values)
+    // per entry: kRestart, kPass (1 value: t) or a sample (1 + 3 n values)
+    std::vector<std::uint8_t> restart;
     std::vector<double> values;
     std::vector<double> regressors;     // Y_p then Y_b of each kSampleWithRegressor entry
   };
@@ -299,6 +318,10 @@ class Identifier::ProbeFeed {
           for (const std::uint8_t kind : batch.restart) {
             if (kind == kRestart) {
               probe_.restart_sample();
+              continue;
+            }
+            if (kind == kPass) {
+              probe_.pass_sample(*v++);
               continue;
             }
             const double t = *v++;
@@ -354,6 +377,15 @@ void Identifier::probe_add(double t, const Eigen::VectorXd& q, const Eigen::Vect
   }
 }
 
+void Identifier::probe_pass(double t) {
+  if (probe_reference_) return;
+  if (probe_feed_) {
+    probe_feed_->pass(t);
+  } else if (friction_probe_) {
+    friction_probe_->pass_sample(t);
+  }
+}
+
 void Identifier::probe_restart() {
   if (probe_reference_) return;
   if (probe_feed_) {
@@ -388,11 +420,66 @@ double Identifier::cycle_start(double t) const {
 }
 
 void Identifier::restart() {
+  end_pass();  // the log's time runs to its last sample, thinned out or not
   restart_sample();
   if (copies_started_) {
     for (auto& copy : noisy_) copy->restart_sample();
   } else {
     restart_pending_ = true;
+  }
+}
+
+void Identifier::plan(std::uint64_t samples) {
+  if (samples_read_ > 0) throw Error("dynfit: plan() after the first sample");
+  keep_share_ = options_.max_samples > 0 && samples > options_.max_samples
+                    ? static_cast<double>(options_.max_samples) / static_cast<double>(samples)
+                    : 0.0;
+}
+
+double Identifier::stretch_of(double t) const {
+  // The log time of the sample (that fit_sample() gives it, up to rounding).
+  double at = t_log_;
+  if (have_time_ && t > t_previous_) at += t - t_previous_;
+  return std::floor(at / stretch_);
+}
+
+bool Identifier::thinned_out(double t) const {
+  if (samples_taken_ >= options_.max_samples) return true;  // the budget's guarantee
+  // Stretch s is kept when (s + 1) share passes an integer: evenly spread, floor(S share) of
+  // the first S (at most the share of the samples, when the stretches are full).
+  const double s = stretch_of(t);
+  return !(std::floor((s + 1) * keep_share_) > std::floor(s * keep_share_));
+}
+
+void Identifier::pass_sample(double t) {
+  if (std::isfinite(t) && (!have_time_ || t > t_previous_)) {
+    if (have_time_) {
+      t_log_ += t - t_previous_;
+      thinned_seconds_ += t - t_previous_;
+    }
+    have_time_ = true;
+    t_previous_ = t;
+  }
+  started_ = false;
+}
+
+void Identifier::end_pass() {
+  if (!passing_) return;
+  passing_ = false;
+  // This fit, its probe and its velocity-noise copies take the same time step, so that their
+  // held-out segments stay the same.
+  pass_sample(pass_t_);
+  probe_pass(pass_t_);
+  if (copies_started_) {
+    if (!noise_reference_)
+      for (auto& copy : noisy_) copy->pass_sample(pass_t_);
+  } else if (options_.velocity_noise_draws > 0) {
+    KeptSample pass;
+    pass.t = pass_t_;
+    pass.pass = true;
+    pass.restart = restart_pending_;
+    restart_pending_ = false;
+    kept_.push_back(std::move(pass));
   }
 }
 
@@ -499,16 +586,36 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
   if (q.size() != n_ || dq.size() != n_ || tau_m.size() != n_) {
     throw Error("dynfit: a sample has the wrong number of joints");
   }
+  ++samples_read_;
+  if (keep_share_ > 0) {
+    if (thinned_out(t)) {
+      // Only the last of a run of samples thinned out is looked at (end_pass()): its time;
+      // and the first of a log, which starts the log's time.
+      if (std::isfinite(t)) {
+        pass_t_ = t;
+        passing_ = true;
+        if (!have_time_) end_pass();
+      }
+      return;
+    }
+    end_pass();
+    const auto stretch = static_cast<long long>(stretch_of(t));
+    if (stretch != last_stretch_) ++stretches_kept_;
+    last_stretch_ = stretch;
+  }
+  ++samples_taken_;
   add_sample(t, q, dq, tau_m);
+  // The time limits below count the log time fitted: t_log_ itself without thinning.
+  const double t_fitted = t_log_ - thinned_seconds_;
   if (friction_probe_ && !probe_reference_ && options_.friction_probe_seconds > 0 &&
-      t_log_ >= options_.friction_probe_seconds)
+      t_fitted >= options_.friction_probe_seconds)
     probe_reference_ = snapshot();  // the probe has seen its share of the log
   const std::uint64_t index = sample_index_++;
   if (options_.velocity_noise_draws == 0) return;
   if (!copies_started_) {
     kept_.push_back({index, t, q, dq, tau_m, restart_pending_});
     restart_pending_ = false;
-    if (kept_.size() >= static_cast<std::size_t>(options_.velocity_noise_samples)) {
+    if (++kept_samples_ >= static_cast<std::size_t>(options_.velocity_noise_samples)) {
       noisy_ = replay_kept(&velocity_noise_);
       copies_started_ = true;
       kept_.clear();
@@ -519,13 +626,14 @@ void Identifier::add(double t, const Eigen::VectorXd& q, const Eigen::VectorXd& 
   if (noise_reference_) return;  // the copies have seen their share of the log
   for (std::size_t c = 0; c < noisy_.size(); ++c)
     add_to_copy(*noisy_[c], c, index, velocity_noise_, t, q, dq, tau_m, noisy_dq_);
-  if (options_.velocity_noise_seconds > 0 && t_log_ >= options_.velocity_noise_seconds) noise_reference_ = snapshot();
+  if (options_.velocity_noise_seconds > 0 && t_fitted >= options_.velocity_noise_seconds) noise_reference_ = snapshot();
 }
 
 std::unique_ptr<Identifier> Identifier::snapshot() const {
   IdentifyOptions options = options_;
   options.friction_probe = false;
   options.velocity_noise_draws = 0;
+  options.max_samples = 0;
   flush();
   auto copy = std::make_unique<Identifier>(model_, options);
   copy->blocks_ = blocks_;
@@ -561,7 +669,9 @@ std::vector<std::unique_ptr<Identifier>> Identifier::replay_kept(Eigen::VectorXd
   for (int j = 0; j < n_; ++j) {
     std::vector<double> d2;
     for (std::size_t k = 1; k + 1 < kept_.size(); ++k) {
-      if (kept_[k].restart || kept_[k + 1].restart) continue;
+      // Three consecutive samples: no restart or samples thinned out between them.
+      if (kept_[k - 1].pass || kept_[k].pass || kept_[k + 1].pass || kept_[k].restart || kept_[k + 1].restart)
+        continue;
       const double d = kept_[k + 1].dq[j] - 2 * kept_[k].dq[j] + kept_[k - 1].dq[j];
       if (std::isfinite(d)) d2.push_back(std::abs(d));
     }
@@ -571,11 +681,16 @@ std::vector<std::unique_ptr<Identifier>> Identifier::replay_kept(Eigen::VectorXd
   IdentifyOptions copy_options = options_;
   copy_options.velocity_noise_draws = 0;
   copy_options.friction_probe = false;
+  copy_options.max_samples = 0;  // fed what this fit takes
   Eigen::VectorXd scratch(n_);
   for (int c = 0; c < options_.velocity_noise_draws; ++c) {
     copies.push_back(std::make_unique<Identifier>(model_, copy_options));
     for (const KeptSample& k : kept_) {
       if (k.restart) copies.back()->restart_sample();
+      if (k.pass) {
+        copies.back()->pass_sample(k.t);
+        continue;
+      }
       add_to_copy(*copies.back(), static_cast<std::size_t>(c), k.index, noise, k.t, k.q, k.dq, k.tau_m, scratch);
     }
   }
@@ -878,6 +993,11 @@ IdentifySummary Identifier::solve_one(const Eigen::VectorXd* current) const {
   s.seconds_held_out = seconds_held_;
   s.restarts = restarts_;
   s.blocks = static_cast<int>(blocks_.size());
+  s.samples_read = samples_read_;
+  s.samples_taken = samples_taken_;
+  s.thinned = keep_share_ > 0;
+  s.stretch_seconds = stretch_;
+  s.stretches_kept = stretches_kept_;
 
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(columns_, columns_);
   Eigen::VectorXd b = Eigen::VectorXd::Zero(columns_);

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <string>
 
 #include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
@@ -105,6 +107,20 @@ std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier&
   return rows;
 }
 
+std::uint64_t count_log(stream::Reader& in) {
+  const std::size_t t_col = in.require("t");
+  double t_last = -std::numeric_limits<double>::infinity();
+  std::uint64_t rows = 0;
+  while (const double* row = in.next()) {
+    const double t = row[t_col];
+    if (in.time_mark() == stream::TimeMark::clock_step) t_last = -std::numeric_limits<double>::infinity();
+    if (!in.follows_in_time(t, t_last)) continue;
+    t_last = t;
+    ++rows;
+  }
+  return rows;
+}
+
 bool worse_than_current(const IdentifySummary& s) {
   if (s.rms_current.size() != s.rms_after.size() || s.rms_after.size() == 0) return false;
   return s.rms_after.squaredNorm() > s.rms_current.squaredNorm() * (1 + 1e-9);
@@ -165,6 +181,22 @@ std::string report_text(const Report& report) {
                 s.seconds_fit, static_cast<unsigned long long>(s.samples_fit), s.seconds_held_out,
                 static_cast<unsigned long long>(s.samples_held_out), static_cast<unsigned long long>(s.samples_skipped),
                 s.restarts, s.restarts == 1 ? "" : "s", s.blocks);
+  line(buffer);
+  if (s.thinned) {
+    std::snprintf(buffer, sizeof buffer,
+                  "samples: %llu of %llu taken (budget %llu): %d stretches of %g s spread evenly over the logs, "
+                  "the filters restarting at each",
+                  static_cast<unsigned long long>(s.samples_taken), static_cast<unsigned long long>(s.samples_read),
+                  static_cast<unsigned long long>(report.options.max_samples), s.stretches_kept, s.stretch_seconds);
+  } else if (!report.budget_not_applied.empty()) {
+    std::snprintf(buffer, sizeof buffer, "samples: all %llu taken; budget %llu not applied: %s",
+                  static_cast<unsigned long long>(s.samples_read),
+                  static_cast<unsigned long long>(report.options.max_samples), report.budget_not_applied.c_str());
+  } else {
+    std::snprintf(buffer, sizeof buffer, "samples: all %llu taken (budget %s)",
+                  static_cast<unsigned long long>(s.samples_read),
+                  report.options.max_samples > 0 ? std::to_string(report.options.max_samples).c_str() : "none");
+  }
   line(buffer);
   std::snprintf(buffer, sizeof buffer,
                 "regressor: %d identifiable combinations of %d (rank tolerance %g), condition number %.4g (column-scaled), smallest singular value %.3g",
@@ -253,7 +285,11 @@ nlohmann::json report_json(const Report& report) {
   j["data"] = {{"samples_fitted", s.samples_fit},   {"samples_held_out", s.samples_held_out},
                {"samples_skipped", s.samples_skipped}, {"seconds_fitted", s.seconds_fit},
                {"seconds_held_out", s.seconds_held_out}, {"filter_starts", s.restarts},
-               {"covariance_blocks", s.blocks}};
+               {"covariance_blocks", s.blocks},
+               {"samples_read", s.samples_read},   {"samples_taken", s.samples_taken},
+               {"max_samples", report.options.max_samples}, {"thinned", s.thinned},
+               {"stretches_kept", s.stretches_kept}, {"stretch_seconds", s.stretch_seconds}};
+  if (!report.budget_not_applied.empty()) j["data"]["budget_not_applied"] = report.budget_not_applied;
   j["velocity_noise"] = {{"per_joint", vector_json(s.velocity_noise)}, {"draws", s.velocity_noise_draws}};
   j["friction_probe_min_speed"] = s.friction_probe_min_speed;
   j["rank"] = s.rank;

@@ -21,6 +21,10 @@ namespace momentum::inertia {
 // the log is of another robot). Returns the number of rows read.
 std::uint64_t add_log(stream::Reader& in, const model::Model& model, Identifier& identifier);
 
+// The samples add_log() would give the identifier from `in`: its rows in time order, read and
+// not otherwise looked at (for Identifier::plan()).
+std::uint64_t count_log(stream::Reader& in);
+
 // Everything the report shows.
 struct Report {
   std::vector<std::string> inputs;
@@ -30,6 +34,9 @@ struct Report {
   std::vector<std::string> body_names;   // nq
   std::vector<std::string> joint_names;  // nq
   bool has_current = false;              // the profile had corrections (summary.rms_current)
+  // Why the sample budget was not applied although set (an input that cannot be read twice
+  // to count its samples ahead, such as standard input), or empty.
+  std::string budget_not_applied;
   double seconds = 0;                    // wall time
   std::string outcome;                   // what happened to the profile
 };
