@@ -21,6 +21,7 @@
 #include "momentum/core/error.hpp"
 #include "momentum/model/collision.hpp"
 #include "momentum/model/dynamics.hpp"
+#include "momentum/observer/filter.hpp"
 
 namespace {
 
@@ -395,6 +396,50 @@ TEST(Window, KeepsTheLevelBeforeTheOnsetAndHalvesItsRate) {
   EXPECT_EQ(window.samples().front().weight[1], 2.0);
   for (std::size_t i = 1; i < window.samples().size(); ++i)
     EXPECT_NEAR(window.samples()[i].t - window.samples()[i - 1].t, 0.02, 1e-12);
+}
+
+// A first-order observer's lag undone: a 40 ms push of 100 Nm (a level of 3 Nm before it),
+// seen through mo-observe's own filter at K1 = 50 1/s at 1 kHz, reaches only 86.5 Nm in the
+// residual (100 (1 - exp(-2)) over the level); the disturbance recovered from it is back at 100
+// within 0.1% once a span (one time constant, 1 / K1 = 20 ms) of the push has passed, and
+// returns to the level a span after it. Without the observer's gains the samples carry no tau; a wrong count of gains, or
+// a gain of 0, is refused.
+TEST(Window, UndoesAFirstOrderObserversLag) {
+  const double k1 = 50, level = 3;
+  mc::ContactWindow window(1, 1024, 512, 0.05);
+  window.undo_first_order_lag({k1});
+  momentum::observer::DisturbanceFilter<double> observer(momentum::observer::Gains{k1, 0, 0});
+  const double q[1] = {0}, weight[1] = {1};
+  double r_peak = 0;
+  for (int k = 0; k <= 400; ++k) {
+    const double t = 0.001 * k;
+    // The observer long at the level before: the residual is the level plus the push filtered.
+    const double push = k >= 200 && k < 240 ? 100.0 : 0.0;
+    const double x[1] = {level + observer.step(push, 0.001)};
+    window.add(t, q, x, weight);
+    if (k == 200) window.open(0.1995);
+    if (k >= 200) r_peak = std::max(r_peak, x[0] - level);
+  }
+  EXPECT_NEAR(r_peak, 100 * (1 - std::exp(-k1 * 0.039)), 0.5);
+  double tau_peak = 0;
+  for (const mc::ResidualSample& s : window.samples()) {
+    ASSERT_EQ(s.tau.size(), 1);
+    tau_peak = std::max(tau_peak, s.tau[0]);
+    if (s.t >= 0.2205 && s.t <= 0.2395) {
+      EXPECT_NEAR(s.tau[0], 100.0, 0.1) << "t " << s.t;
+    }
+    if (s.t >= 0.2605) {
+      EXPECT_NEAR(s.tau[0], 0.0, 0.1) << "t " << s.t;
+    }
+  }
+  EXPECT_NEAR(tau_peak, 100.0, 0.1);
+  mc::ContactWindow plain(1, 64, 8, 0.05);
+  plain.add(0, q, q, weight);
+  plain.open(0);
+  ASSERT_EQ(plain.samples().size(), 1u);
+  EXPECT_EQ(plain.samples().front().tau.size(), 0);
+  EXPECT_THROW(plain.undo_first_order_lag({50, 50}), momentum::Error);
+  EXPECT_THROW(plain.undo_first_order_lag({0}), momentum::Error);
 }
 
 TEST(Classify, PulseWidthAndLearntRule) {

@@ -6,6 +6,7 @@
 
 #include "momentum/core/error.hpp"
 #include "momentum/detect/thresholds.hpp"
+#include "momentum/observer/observer.hpp"
 
 namespace momentum::contact {
 
@@ -44,6 +45,12 @@ EventContact::EventContact(const model::Model& model, const detect::Thresholds& 
   if (thresholds.joints.size() != n_)
     throw Error("thresholds for " + std::to_string(thresholds.joints.size()) + " joints, the model has " +
                 std::to_string(n_));
+  if (!options.observer_k1.empty()) {
+    const auto& k = options.observer_k1;
+    if (k.size() != 1 && k.size() != n_)
+      throw Error(std::to_string(k.size()) + " observer gains for " + std::to_string(n_) + " joints");
+    window_.undo_first_order_lag(k.size() == 1 ? std::vector<double>(n_, k[0]) : k);
+  }
 }
 
 void EventContact::add(double t, const double* q, const double* x, const double* dq) {
@@ -175,6 +182,15 @@ detect::AnnotatorFactory annotator_factory(LocatorOptions options, std::string p
     LocatorOptions located = options;
     if (const auto temperature = link_temperature_from_profile(profile.document, signal, profile_path))
       located.link_temperature = *temperature;
+    // The residuals come from mo-observe with the same profile: its observer's lag is undone
+    // when it is of the first order (its default), whose recursion the window inverts.
+    observer::ObserverOptions observer;
+    if (const auto section = profile.document.find("observer"); section != profile.document.end())
+      observer = observer::observer_options_from_json(*section, nullptr);
+    located.observer_k1.clear();
+    if (observer.order == 1)
+      for (const observer::Gains& g : observer.joint_gains(static_cast<int>(thresholds.joints.size())))
+        located.observer_k1.push_back(g.k1);
     return std::make_unique<EventContact>(chain, thresholds, std::move(rule), located, band);
   };
 }

@@ -198,6 +198,8 @@ bool LocatorOptions::IsValid(std::string* why) const {
   if (!(proximal_alpha > 0 && proximal_alpha < 0.5)) return invalid(why, "the proximal level must be in (0, 0.5)");
   if (!(link_confidence > 0 && link_confidence <= 1)) return invalid(why, "the link set's confidence must be in (0, 1]");
   if (!(link_temperature > 0) || !std::isfinite(link_temperature)) return invalid(why, "the link temperature must be positive");
+  for (double k : observer_k1)
+    if (!(k > 0) || !std::isfinite(k)) return invalid(why, "an observer gain must be a finite number > 0");
   return true;
 }
 
@@ -536,19 +538,28 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
     out.point_sd = 0.5 * (seg.to - seg.from).norm() + options_.link_radius;
   }
 
-  // Force on every sample at the chosen point: the peak and the impulse; the strongest sample's
-  // force with its uncertainty.
+  // Force on every sample at the chosen point: the peak and the impulse, from the disturbance
+  // with the observer's lag undone where the samples carry it; the strongest sample's force
+  // with its uncertainty, from the residual the fit weighed.
   double previous_t = 0, previous_norm = 0;
+  ResidualSample undone;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const Kinematics k = kinematics(samples[i]);
     Eigen::Matrix3d covariance;
     const Eigen::Vector3d force = solve_force(k, samples[i], f.body, out.point, &covariance, nullptr);
-    const double norm = force.norm();
+    double norm = force.norm();
     if (i == strongest) {
       out.force = force;
       out.force_norm = norm;
       const Eigen::Vector3d direction = norm > 0 ? Eigen::Vector3d(force / norm) : Eigen::Vector3d::UnitX();
       out.force_sd = std::sqrt(std::max(0.0, scale * direction.dot(covariance * direction)));
+    }
+    if (samples[i].tau.size() == samples[i].r.size()) {
+      undone.t = samples[i].t;
+      undone.q = samples[i].q;
+      undone.r = samples[i].tau;
+      undone.weight = samples[i].weight;
+      norm = solve_force(k, undone, f.body, out.point, nullptr, nullptr).norm();
     }
     if (norm > out.peak_force) out.peak_force = norm, out.t_peak = samples[i].t;
     if (i > 0) out.impulse += 0.5 * (norm + previous_norm) * (samples[i].t - previous_t);

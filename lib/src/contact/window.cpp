@@ -51,7 +51,37 @@ void ContactWindow::record(const double* row) {
   s.q = Eigen::Map<const Eigen::VectorXd>(row + 1, n);
   s.r = Eigen::Map<const Eigen::VectorXd>(row + 1 + n_, n) - level_;
   s.weight = Eigen::Map<const Eigen::VectorXd>(row + 1 + 2 * n_, n);
+  if (!k1_.empty()) {
+    s.tau = s.r;
+    if (const double* before = row_before(row, lag_span_)) {
+      const double span = row[0] - before[0];
+      for (std::size_t j = 0; j < n_; ++j) {
+        const double a = std::exp(-k1_[j] * span);
+        s.tau[static_cast<Eigen::Index>(j)] =
+            (row[1 + n_ + j] - a * before[1 + n_ + j]) / (1 - a) - level_[static_cast<Eigen::Index>(j)];
+      }
+    }
+  }
   samples_.push_back(std::move(s));
+}
+
+void ContactWindow::undo_first_order_lag(std::vector<double> k1) {
+  if (k1.size() != n_) throw Error("contact window: " + std::to_string(k1.size()) + " observer gains for " + std::to_string(n_) + " joints");
+  for (double k : k1)
+    if (!(k > 0) || !std::isfinite(k)) throw Error("contact window: an observer gain must be a finite number > 0");
+  lag_span_ = kLagSpan / *std::min_element(k1.begin(), k1.end());
+  k1_ = std::move(k1);
+}
+
+const double* ContactWindow::row_before(const double* row, double span) const {
+  const std::size_t index = static_cast<std::size_t>(row - ring_.data()) / width();
+  const std::size_t oldest = (ring_next_ + ring_rows_ - ring_size_) % ring_rows_;
+  const std::size_t older = (index + ring_rows_ - oldest) % ring_rows_;  // rows before it in the ring
+  for (std::size_t k = 1; k <= older; ++k) {
+    const double* before = &ring_[((index + ring_rows_ - k) % ring_rows_) * width()];
+    if (before[0] <= row[0] - span) return before;
+  }
+  return nullptr;
 }
 
 void ContactWindow::open(double t_onset_estimate) {

@@ -68,6 +68,10 @@ struct ResidualSample {
   Eigen::VectorXd q;
   Eigen::VectorXd r;
   Eigen::VectorXd weight;
+  // The disturbance torque with the observer's lag undone, minus the same level (nq), or empty
+  // when the observer is not known (ContactWindow::undo_first_order_lag): what the peak force
+  // and the impulse are taken from.
+  Eigen::VectorXd tau;
 };
 
 struct LocatorOptions {
@@ -97,6 +101,10 @@ struct LocatorOptions {
   // labelled campaign shows beyond it (mo-calibrate --classes:
   // thresholds.<signal>.identify.link_temperature).
   double link_temperature = 1;
+  // The gains K1 (1/s, one or one per joint) of the first-order observer that made the
+  // residuals, whose lag the peak force and the impulse undo (ContactWindow::
+  // undo_first_order_lag); empty: taken from the residuals as they are (another observer).
+  std::vector<double> observer_k1;
   bool IsValid(std::string* why) const;
 };
 
