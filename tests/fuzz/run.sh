@@ -184,4 +184,7 @@ while ((running > 0)); do
   wait -n || status=1
   ((running--))
 done
+# A work folder of its own (not FUZZ_WORK) goes when every target passed: 165 MB of objects and
+# corpora a run. A finding keeps it, with the inputs that crashed.
+if ((status == 0)) && [[ -z ${FUZZ_WORK:-} ]]; then rm -rf "$work"; fi
 exit $status
