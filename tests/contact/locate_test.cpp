@@ -6,6 +6,7 @@
 
 #include <algorithm>
 
+#include <cstdio>
 #include <cstdlib>
 
 #include <cmath>
@@ -83,7 +84,7 @@ TEST(Locate, RecoversForceAndPointOnAWristLink) {
   EXPECT_TRUE(loc.point_determined);
   EXPECT_TRUE(loc.force_determined);
   EXPECT_LT((loc.point - point).norm(), 3 * loc.point_sd + 1e-9) << loc.point.transpose();
-  EXPECT_NEAR(loc.peak_force, force.norm(), 3 * loc.force_sd + 0.5);
+  EXPECT_NEAR(loc.peak_force, force.norm(), 3 * loc.peak_force_sd);
   EXPECT_LT(std::acos(loc.force.normalized().dot(force.normalized())), 0.1);  // direction within 6 degrees
   // The impulse of a half sine of peak |F| over 0.2 s: |F| 0.2 * 2 / pi.
   EXPECT_NEAR(loc.impulse, force.norm() * 0.2 * 2 / M_PI, 0.02 * force.norm() * 0.2);
@@ -355,6 +356,47 @@ TEST(Locate, UnreadMeshesAreSaidOnce) {
   ::unsetenv("ROS_PACKAGE_PATH");
 }
 
+// The peak force's sd is a promise: about 68% of the errors lie within it. Pushes of 40 to
+// 120 N in random directions at random points along the UR5's forearm (link 3: the joints do
+// not determine the point, the middle is reported), on its surface, through the Jacobian and
+// noise. There the lever arm, not the noise, makes the error (hundreds of N near the joints'
+// axes), as on the MuJoCo campaigns, where the noise alone covered 7 of 48 errors; here it
+// covers none. (Where the noise dominates, on the wrist's last link, the peak of the noisy rows
+// is biased up by their noise: 15 of 40 are covered there, not asserted.)
+TEST(Locate, ThePeakForcesSdCoversItsError) {
+  const mm::Model model = load("ur5");
+  const auto segments = mc::link_segments(model);
+  const double sigma = 0.3;
+  const int body = 2;
+  mc::Locator locator(model, Eigen::VectorXd::Constant(6, sigma));
+  std::mt19937_64 random(29);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int covered = 0, noise_covered = 0;
+  const int pushes = 40;
+  const Eigen::Vector3d along = segments[body].to - segments[body].from;
+  const Eigen::Vector3d across = along.normalized().unitOrthogonal();
+  const Eigen::Vector3d across2 = along.normalized().cross(across);
+  for (int n = 0; n < pushes; ++n) {
+    const double angle = 2 * M_PI * uniform(random);
+    const Eigen::Vector3d point = segments[body].from + (0.1 + 0.8 * uniform(random)) * along +
+                                  0.05 * (std::cos(angle) * across + std::sin(angle) * across2);
+    const Eigen::Vector3d direction = Eigen::Vector3d(normal(random), normal(random), normal(random)).normalized();
+    const double magnitude = 40 + 80 * uniform(random);
+    const auto samples = push(model, body, point, magnitude * direction, sigma, 100 + static_cast<unsigned>(n));
+    const mc::Location loc = locator.locate(samples, body + 1, body + 1, mc::LinkChoice::best_fit);
+    ASSERT_EQ(loc.link, body + 1) << n;
+    ASSERT_GT(loc.peak_force_sd, 0) << n;
+    covered += std::abs(loc.peak_force - magnitude) <= loc.peak_force_sd;
+    noise_covered += std::abs(loc.peak_force - magnitude) <= loc.force_sd;
+  }
+  std::printf("%d of %d within the peak force's sd, %d within the noise's\n", covered, pushes, noise_covered);
+  // 68% of 40 is 27; the count's sd is 3.
+  EXPECT_GE(covered, 21);
+  EXPECT_LE(covered, 35);
+  EXPECT_LT(noise_covered, 21);
+}
+
 TEST(Locate, FewJointsGivePartialForce) {
   const mm::Model model = load("ur5");
   const auto segments = mc::link_segments(model);
@@ -433,6 +475,18 @@ TEST(Window, UndoesAFirstOrderObserversLag) {
     }
   }
   EXPECT_NEAR(tau_peak, 100.0, 0.1);
+  // tau's noise: (r(t) - a r(t - span)) / (1 - a) has sd sqrt(1 + a^2) / (1 - a) times r's
+  // (independent at the two rows), so its weight is the residual's over that; the span is
+  // 20 ms, or 21 where the rounding of t puts the row 20 ms before just after t - 20 ms.
+  auto tau_weight = [&](double span) {
+    const double a = std::exp(-k1 * span);
+    return weight[0] * (1 - a) / std::sqrt(1 + a * a);
+  };
+  for (const mc::ResidualSample& s : window.samples())
+    if (s.t >= 0.2205) {
+      EXPECT_GE(s.tau_weight[0], tau_weight(0.020) - 1e-9) << "t " << s.t;
+      EXPECT_LE(s.tau_weight[0], tau_weight(0.021) + 1e-9) << "t " << s.t;
+    }
   mc::ContactWindow plain(1, 64, 8, 0.05);
   plain.add(0, q, q, weight);
   plain.open(0);

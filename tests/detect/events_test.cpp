@@ -257,14 +257,15 @@ TEST(Events, LinkProbabilitiesRoundTripAndDamageIsAnError) {
     e.contact.link_set = {2, 3};
     e.contact.set_probability = 1 - 1.23456e-9;
     e.contact.collision_probability = 0.25;
+    e.contact.peak_force_sd = 12.5;
     w.write(e);
   }
   const std::string text = [&] {
     std::ifstream in(path);
     return std::string(std::istreambuf_iterator<char>(in), {});
   }();
-  EXPECT_NE(text.find(",seen,links,link_set,p_set,p_collision\n"), std::string::npos) << text;
-  EXPECT_NE(text.find(",point,3:0.612;2:0.388;1:1.23e-09,2;3,1,0.25\n"), std::string::npos) << text;
+  EXPECT_NE(text.find(",seen,links,link_set,p_set,p_collision,f_peak_sd\n"), std::string::npos) << text;
+  EXPECT_NE(text.find(",point,3:0.612;2:0.388;1:1.23e-09,2;3,1,0.25,12.5\n"), std::string::npos) << text;
   auto r = EventReader::open(path);
   const auto e = r->next();
   ASSERT_TRUE(e);
@@ -274,14 +275,17 @@ TEST(Events, LinkProbabilitiesRoundTripAndDamageIsAnError) {
   EXPECT_EQ(e->contact.link_set, (std::vector<int>{2, 3}));
   EXPECT_EQ(e->contact.set_probability, 1);
   EXPECT_EQ(e->contact.collision_probability, 0.25);
-  const std::string head = "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,peak2,links,link_set,p_set,p_collision\n";
+  EXPECT_EQ(e->contact.peak_force_sd, 12.5);
+  const std::string head = "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,peak2,links,link_set,p_set,p_collision,f_peak_sd\n";
   const std::pair<std::string, std::string> cases[] = {
-      {"1,2,1,1,onset,1,,,3,4,1:0.5;2,,,\n", ":2: bad links entry '2' (link:probability)"},
-      {"1,2,1,1,onset,1,,,3,4,3:0.5,,,\n", ":2: link 3 out of 1..2"},
-      {"1,2,1,1,onset,1,,,3,4,1:1.5,,,\n", ":2: bad probability in links '1.5' (a probability, 0..1)"},
-      {"1,2,1,1,onset,1,,,3,4,,1;x,,\n", ":2: bad link in link_set 'x'"},
-      {"1,2,1,1,onset,1,,,3,4,,,-0.1,\n", ":2: bad p_set '-0.1' (a probability, 0..1)"},
-      {"1,2,1,1,onset,1,,,3,4,,,,nan\n", ":2: bad p_collision 'nan' (a probability, 0..1)"},
+      {"1,2,1,1,onset,1,,,3,4,1:0.5;2,,,,\n", ":2: bad links entry '2' (link:probability)"},
+      {"1,2,1,1,onset,1,,,3,4,3:0.5,,,,\n", ":2: link 3 out of 1..2"},
+      {"1,2,1,1,onset,1,,,3,4,1:1.5,,,,\n", ":2: bad probability in links '1.5' (a probability, 0..1)"},
+      {"1,2,1,1,onset,1,,,3,4,,1;x,,,\n", ":2: bad link in link_set 'x'"},
+      {"1,2,1,1,onset,1,,,3,4,,,-0.1,,\n", ":2: bad p_set '-0.1' (a probability, 0..1)"},
+      {"1,2,1,1,onset,1,,,3,4,,,,nan,\n", ":2: bad p_collision 'nan' (a probability, 0..1)"},
+      {"1,2,1,1,onset,1,,,3,4,,,,,-1\n", ":2: bad f_peak_sd '-1' (a standard deviation, >= 0)"},
+      {"1,2,1,1,onset,1,,,3,4,,,,,x\n", ":2: bad f_peak_sd 'x'"},
   };
   for (const auto& [row, message] : cases) {
     write_text(path, head + row);

@@ -145,14 +145,14 @@ TEST(StreamDetector, AnnotatorSeesEveryRowAndFillsTheEvents) {
   EXPECT_EQ(summary.collisions, 1u);
   EXPECT_EQ(summary.hooks_run, 1u);  // on the row the class was decided, not at detection
   const std::string text = read_text(output);
-  EXPECT_NE(text.find(",seen,links,link_set,p_set,p_collision\n"), std::string::npos) << text;  // with the contact columns
+  EXPECT_NE(text.find(",seen,links,link_set,p_set,p_collision,f_peak_sd\n"), std::string::npos) << text;  // with the contact columns
   // The onset row without a fit, then the identified row, then the end row with the whole
   // event's identification.
-  EXPECT_NE(text.find("0.01,0.01,1,1,onset,1,,,5,,,,,,,,,,,,,,,,,,,,\n"
-                      "0.01,0.01,1,1,identified,1,,,5,,,,12.5,,,,,,,,,,,,force,,,,\n"),
+  EXPECT_NE(text.find("0.01,0.01,1,1,onset,1,,,5,,,,,,,,,,,,,,,,,,,,,\n"
+                      "0.01,0.01,1,1,identified,1,,,5,,,,12.5,,,,,,,,,,,,force,,,,,\n"),
             std::string::npos)
       << text;
-  EXPECT_NE(text.find(",end,1,0.03,release,5,,,,,,,,,,,,,,,,point,,,,\n"), std::string::npos) << text;
+  EXPECT_NE(text.find(",end,1,0.03,release,5,,,,,,,,,,,,,,,,point,,,,,\n"), std::string::npos) << text;
   EXPECT_EQ(read_text(hooks), "collision collision\n");
   std::filesystem::remove_all(dir);
 }

@@ -277,8 +277,9 @@ TEST(Score, LinkTemperatureFromSimulatedOverconfidence) {
 namespace momentum::eval {
 namespace {
 
-// Two contacts with stated uncertainties: the first's force error (5 N) is within its f_sd
-// (6 N) and its point error (0.05 m) outside its p_sd (0.03 m); the second the other way round.
+// Two contacts with stated uncertainties: the first's peak force error (5 N) is within its
+// f_peak_sd (6 N) and its point error (0.05 m) outside its p_sd (0.03 m); the second the other
+// way round. Their f_sd (the strongest row's force's, 100 N) is not what f_peak is held to.
 TEST(Score, CoverageOfTheStatedUncertainties) {
   const char* truth =
       "t_onset,t_end,link,clamp,px,py,pz,f_peak\n"
@@ -286,11 +287,11 @@ TEST(Score, CoverageOfTheStatedUncertainties) {
       "20,21,1,1,0.1,0,0,60\n";
   const char* events =
       "t_onset_estimate,t_detect,link,joints,kind,event,t_end,ended_by,peak1,"
-      "class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen\n"
-      "10,10.05,1,1,onset,1,,,1,,,,,,,,,,,,,,,,\n"
-      "10,10.05,1,1,end,1,10.6,release,1,,,,,,,,6,0.05,0,0,0.03,85,,,point\n"
-      "20,20.05,1,1,onset,2,,,1,,,,,,,,,,,,,,,,\n"
-      "20,20.05,1,1,end,2,21.1,release,1,,,,,,,,2,0.1,0.02,0,0.03,50,,,point\n";
+      "class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen,links,link_set,p_set,p_collision,f_peak_sd\n"
+      "10,10.05,1,1,onset,1,,,1,,,,,,,,,,,,,,,,,,,,,\n"
+      "10,10.05,1,1,end,1,10.6,release,1,,,,,,,,100,0.05,0,0,0.03,85,,,point,,,,,6\n"
+      "20,20.05,1,1,onset,2,,,1,,,,,,,,,,,,,,,,,,,,,\n"
+      "20,20.05,1,1,end,2,21.1,release,1,,,,,,,,100,0.1,0.02,0,0.03,50,,,point,,,,,2\n";
   const Score s = score(read_truth(write_temp("sd-truth.csv", truth)),
                         read_detections(write_temp("sd-events.csv", events)), {});
   ASSERT_EQ(s.detected, 2);

@@ -82,6 +82,7 @@ void EventContact::fill(detect::Event& event, bool whole) {
     c.px = loc.point.x(), c.py = loc.point.y(), c.pz = loc.point.z();
     c.point_sd = loc.point_sd;
     c.peak_force = loc.peak_force;
+    c.peak_force_sd = loc.peak_force_sd;
     c.impulse = loc.impulse;
     c.fit = loc.chi2;
     c.seen = loc.point_determined ? "point" : loc.force_determined ? "force" : "partial";

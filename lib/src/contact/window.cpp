@@ -53,12 +53,14 @@ void ContactWindow::record(const double* row) {
   s.weight = Eigen::Map<const Eigen::VectorXd>(row + 1 + 2 * n_, n);
   if (!k1_.empty()) {
     s.tau = s.r;
+    s.tau_weight = s.weight;
     if (const double* before = row_before(row, lag_span_)) {
       const double span = row[0] - before[0];
       for (std::size_t j = 0; j < n_; ++j) {
+        const auto i = static_cast<Eigen::Index>(j);
         const double a = std::exp(-k1_[j] * span);
-        s.tau[static_cast<Eigen::Index>(j)] =
-            (row[1 + n_ + j] - a * before[1 + n_ + j]) / (1 - a) - level_[static_cast<Eigen::Index>(j)];
+        s.tau[i] = (row[1 + n_ + j] - a * before[1 + n_ + j]) / (1 - a) - level_[i];
+        s.tau_weight[i] *= (1 - a) / std::sqrt(1 + a * a);
       }
     }
   }

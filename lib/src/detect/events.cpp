@@ -68,6 +68,8 @@ constexpr const char* kContactColumns[] = {"class", "rise", "width",  "f",      
                                            "px",    "py",   "pz",     "p_sd",    "f_peak", "impulse", "fit", "seen"};
 // Appended after them (issue 29), so that the columns before keep their places.
 constexpr const char* kLinkColumns[] = {"links", "link_set", "p_set", "p_collision"};
+// And after those, the peak force's uncertainty (f_sd is the strongest row's force's).
+constexpr const char* kPeakForceSdColumn = "f_peak_sd";
 constexpr std::size_t kContactNumbers = 14;  // columns 1..14 are numbers, 0 and 15 words
 
 double* contact_number(Event::Contact& c, std::size_t k) {
@@ -105,6 +107,7 @@ std::string event_header(std::size_t joints, bool contact) {
   if (contact) {
     for (const char* column : kContactColumns) header += std::string(",") + column;
     for (const char* column : kLinkColumns) header += std::string(",") + column;
+    header += std::string(",") + kPeakForceSdColumn;
   }
   return header;
 }
@@ -159,6 +162,8 @@ std::string format_event(const Event& e, bool contact) {
     if (!std::isnan(c.set_probability)) append_probability(line, c.set_probability);
     line += ',';
     if (!std::isnan(c.collision_probability)) append_probability(line, c.collision_probability);
+    line += ',';
+    if (!std::isnan(c.peak_force_sd)) append_number(line, c.peak_force_sd);
   }
   return line;
 }
@@ -250,6 +255,7 @@ std::unique_ptr<EventReader> EventReader::open(const std::string& path, EventRea
   reader->joints_ = reader->c_peaks_.size();
   for (const char* column : kContactColumns) reader->c_contact_.push_back(find(column));
   for (const char* column : kLinkColumns) reader->c_links_.push_back(find(column));
+  reader->c_peak_force_sd_ = find(kPeakForceSdColumn);
   return reader;
 }
 
@@ -404,6 +410,12 @@ std::optional<Event> EventReader::parse(const std::string& line) const {
     e.contact.set_probability = probability(fields[c_links_[2]], "p_set");
   if (c_links_[3] != npos && !field(fields[c_links_[3]]).empty())
     e.contact.collision_probability = probability(fields[c_links_[3]], "p_collision");
+  if (c_peak_force_sd_ != npos && !field(fields[c_peak_force_sd_]).empty()) {
+    e.contact.peak_force_sd = number(c_peak_force_sd_, kPeakForceSdColumn);
+    if (!(e.contact.peak_force_sd >= 0))
+      throw fail(std::string("bad ") + kPeakForceSdColumn + " '" + core::printable(fields[c_peak_force_sd_]) +
+                 "' (a standard deviation, >= 0)");
+  }
   return e;
 }
 

@@ -46,6 +46,7 @@ nlohmann::json event_json(const Event& event, const std::string& source, const n
                                                        : nlohmann::json{model::json_number(c.px), model::json_number(c.py), model::json_number(c.pz)}},
                             {"point_sd", model::json_number(c.point_sd)},
                             {"peak_force", model::json_number(c.peak_force)},
+                            {"peak_force_sd", model::json_number(c.peak_force_sd)},
                             {"impulse", model::json_number(c.impulse)},
                             {"fit", model::json_number(c.fit)},
                             {"seen", word(c.seen)},

@@ -55,7 +55,7 @@ std::vector<Detection> read_detections(const std::string& path, bool strict) {
     d.event_class = e.contact.event_class;
     d.peak_force = e.contact.peak_force;
     d.point = {e.contact.px, e.contact.py, e.contact.pz};
-    d.force_sd = e.contact.force_sd;
+    d.peak_force_sd = e.contact.peak_force_sd;
     d.point_sd = e.contact.point_sd;
     d.width = e.contact.width;
     d.rise = e.contact.rise;
@@ -171,7 +171,7 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
         hit->force_error = std::abs(e->peak_force - hit->contact.peak_force);
       if (e->final_link == hit->contact.link && e->point.allFinite() && hit->contact.point.allFinite())
         hit->point_error = (e->point - hit->contact.point).norm();
-      hit->force_sd = e->force_sd;
+      hit->peak_force_sd = e->peak_force_sd;
       hit->point_sd = e->point_sd;
       hit->link_probabilities = e->link_probabilities;
       hit->link_set = e->link_set;
@@ -201,9 +201,9 @@ Score score(const Truth& truth, const std::vector<Detection>& detections, const 
       ++stats.classified;
       stats.class_right += (o.event_class == "collision") == o.contact.clamp;
     }
-    if (std::isfinite(o.force_error) && std::isfinite(o.force_sd)) {
+    if (std::isfinite(o.force_error) && std::isfinite(o.peak_force_sd)) {
       ++stats.force_with_sd;
-      stats.force_covered += o.force_error <= o.force_sd;
+      stats.force_covered += o.force_error <= o.peak_force_sd;
     }
     if (std::isfinite(o.point_error) && std::isfinite(o.point_sd)) {
       ++stats.point_with_sd;

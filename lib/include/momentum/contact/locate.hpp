@@ -72,6 +72,11 @@ struct ResidualSample {
   // when the observer is not known (ContactWindow::undo_first_order_lag): what the peak force
   // and the impulse are taken from.
   Eigen::VectorXd tau;
+  // The weights of tau (nq, with tau): `weight` over tau's noise gain per joint,
+  // (1 - a) / sqrt(1 + a^2) for a = exp(-K1 span), the undoing's amplification of a noise
+  // that is independent at the two rows it reads (the residual's own correlation over that
+  // span makes it smaller: the sd stated from it errs on the wide side).
+  Eigen::VectorXd tau_weight;
 };
 
 struct LocatorOptions {
@@ -165,6 +170,13 @@ struct Location {
   double force_norm = 0;                             // |force|, N
   double force_sd = 0;                               // sd of |force|, N
   double peak_force = 0;                             // largest |force| over all samples, N
+  // sd of peak_force, N: the noise of the peak sample's force and, in quadrature, the deviation
+  // from peak_force that holds 68.3% of the peak sample's forces at the body's points, each by
+  // its share of the body's likelihood (evenly over the body when the joints do not determine
+  // the point). Not the other candidate bodies (`candidates` states those), nor the component
+  // a body seen by fewer than 3 joints hides (a partial force is the least that explains the
+  // residuals).
+  double peak_force_sd = 0;
   double t_peak = 0;                                 // s, time of that sample
   double impulse = 0;                                // integral of |force| over the samples, N s
   double chi2 = 0;                                   // weighted residual sum of squares per degree of freedom

@@ -74,6 +74,7 @@ struct Event {
     double px = NAN, py = NAN, pz = NAN;  // contact point in the link's frame, m
     double point_sd = NAN;          // m, along the link
     double peak_force = NAN;        // largest |F|, N
+    double peak_force_sd = NAN;     // its standard deviation, N (contact::Location::peak_force_sd)
     double impulse = NAN;           // integral of |F|, N s
     double fit = NAN;               // weighted residual sum of squares per degree of freedom
     std::string seen;               // "point" (force and point determined), "force", "partial"
@@ -90,7 +91,7 @@ struct Event {
 
 // Header line of an event file for `joints` joints (no trailing newline); `contact`: with the
 // contact columns class,rise,width,f,fx,fy,fz,f_sd,px,py,pz,p_sd,f_peak,impulse,fit,seen,
-// links,link_set,p_set,p_collision after the peaks (links: `link:probability` pairs separated by
+// links,link_set,p_set,p_collision,f_peak_sd after the peaks (links: `link:probability` pairs separated by
 // ';', most probable first; link_set: links separated by ';').
 std::string event_header(std::size_t joints, bool contact = false);
 // One event as a CSV line (no trailing newline); NaN t_end on onset rows is written empty, as
@@ -180,6 +181,7 @@ class EventReader {
   std::vector<std::size_t> c_peaks_;
   std::vector<std::size_t> c_contact_;  // the contact columns in header order (npos: absent)
   std::vector<std::size_t> c_links_;    // links, link_set, p_set, p_collision (npos: absent)
+  std::size_t c_peak_force_sd_ = 0;     // f_peak_sd (npos: absent)
 };
 
 // Reads a whole event file and returns its end rows (one per event, with the final joints,

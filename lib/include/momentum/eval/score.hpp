@@ -39,7 +39,7 @@ struct Detection {
   std::string event_class;       // "contact", "collision", ""
   double peak_force = NAN;       // N
   Eigen::Vector3d point{NAN, NAN, NAN};  // in the final link's frame, m
-  double force_sd = NAN;         // N, the stated sd of the force
+  double peak_force_sd = NAN;    // N, the stated sd of peak_force
   double point_sd = NAN;         // m, the stated 68% radius of the point
   double width = NAN;            // s, the residual's pulse width
   double rise = NAN;             // s, its rise time
@@ -87,7 +87,7 @@ struct ContactOutcome {
   std::string event_class;          // the detecting event's class ("" when not classified)
   double force_error = NAN;         // |estimated - true peak force|, N (when both are known)
   double point_error = NAN;         // |estimated - true point|, m (when both are known, link right)
-  double force_sd = NAN, point_sd = NAN;  // the detecting event's stated uncertainties
+  double peak_force_sd = NAN, point_sd = NAN;  // the detecting event's stated uncertainties
   std::vector<std::pair<int, double>> link_probabilities;  // the detecting event's (Detection)
   std::vector<int> link_set;
   double set_probability = NAN;
@@ -140,7 +140,7 @@ struct IdentificationStats {
   DelayStats force_error_percent;       // % of the true peak force
   DelayStats point_error;               // m
   // Coverage of the stated uncertainties: the contacts whose force error is within the event's
-  // stated f_sd (one standard deviation: about 68% should be), and whose point error is within
+  // stated f_peak_sd (one standard deviation: about 68% should be), and whose point error is within
   // its p_sd (a 68% radius), of those with both known.
   int force_with_sd = 0, force_covered = 0;
   int point_with_sd = 0, point_covered = 0;
