@@ -66,7 +66,8 @@ int main(int argc, char** argv) {
   app.add_option("--fix", fix_text, "hold parameters at values, e.g. sigma0=1e5")->type_name("LIST");
   app.add_option("--max-samples", o.max_samples,
                  "samples kept per joint over all inputs, as windows spread over them; 0 all (default 200000)")
-      ->type_name("N");
+      ->type_name("N")
+      ->check(cli::whole_number());  // an unsigned option would take -1 as 2^64 - 1
   app.add_option("--threads", o.identify.threads, "joints fitted at once (default: one per core)")->type_name("N");
   app.add_option("--mirror", o.mirror_logs, "check the fit against a trajectory and its mirror (paper's ref. 37)")
       ->expected(2)->type_name("FILE");
