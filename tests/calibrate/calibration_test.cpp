@@ -8,6 +8,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "momentum/calibrate/calibration.hpp"
@@ -49,6 +50,37 @@ TEST(LogHistogram, QuantilesMatchSortedValuesWithinHalfABin) {
       EXPECT_NEAR(h.quantile(p), exact, kHalfBin * exact * 1.0001) << "n=" << n << " p=" << p;
     }
     EXPECT_EQ(h.quantile(1.0), *std::max_element(values.begin(), values.end()));
+  }
+}
+
+// The bins are those of their formula, 1 + floor(log10(value / lowest) * bins per decade),
+// which add() no longer evaluates: over values spread evenly in log over every bin, values a few
+// ulps either side of every bin's edge, and the edges' ends.
+TEST(LogHistogram, BinsAreThoseOfTheFormula) {
+  for (const auto& [lowest, highest, per_decade] :
+       {std::tuple{1e-6, 1e5, 1000}, std::tuple{1e-3, 1e7, 200}, std::tuple{0.37, 5.0, 7}}) {
+    const LogHistogram h(lowest, highest, per_decade);
+    const auto bins = static_cast<std::size_t>(std::ceil(std::log10(highest / lowest) * per_decade)) + 2;
+    auto formula = [&](double value) -> std::size_t {
+      if (value < lowest) return 0;
+      if (value >= highest) return bins - 1;
+      return 1 + std::min(static_cast<std::size_t>(std::log10(value / lowest) * per_decade), bins - 3);
+    };
+    std::mt19937_64 random(5);
+    std::uniform_real_distribution<double> exponent(std::log10(lowest) - 1, std::log10(highest) + 1);
+    std::size_t differ = 0;
+    for (int i = 0; i < 2000000; ++i) {
+      const double value = std::pow(10.0, exponent(random));
+      differ += h.bin(value) != formula(value);
+    }
+    for (std::size_t k = 1; k + 1 < bins; ++k) {
+      double x = lowest * std::pow(10.0, static_cast<double>(k - 1) / per_decade);
+      for (int step = 0; step < 8; ++step) x = std::nextafter(x, 0.0);
+      for (int step = 0; step < 16; ++step, x = std::nextafter(x, INFINITY)) differ += h.bin(x) != formula(x);
+    }
+    for (const double value : {0.0, -1.0, lowest, std::nextafter(lowest, 0.0), highest, std::nextafter(highest, 0.0), 1e300})
+      differ += h.bin(value) != formula(value);
+    EXPECT_EQ(differ, 0u) << lowest << " " << highest << " " << per_decade;
   }
 }
 

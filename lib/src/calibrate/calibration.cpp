@@ -1,11 +1,17 @@
 #include "momentum/calibrate/calibration.hpp"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <string_view>
+#include <tuple>
 
 #include "momentum/core/error.hpp"
 #include "momentum/core/number.hpp"
@@ -19,6 +25,48 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// log2 of a positive normal number within 3.6e-4 (a tenth of a bin at 1000 per decade): its
+// exponent plus the table's log2 of its mantissa's top 12 bits, at their interval's middle.
+constexpr int kMantissaBits = 12;
+double table_log2(double x) {
+  static const std::array<double, 1 << kMantissaBits> table = [] {
+    std::array<double, 1 << kMantissaBits> t{};
+    for (std::size_t i = 0; i < t.size(); ++i) t[i] = std::log2(1 + (static_cast<double>(i) + 0.5) / static_cast<double>(t.size()));
+    return t;
+  }();
+  const auto bits = std::bit_cast<std::uint64_t>(x);
+  const int exponent = static_cast<int>((bits >> 52) & 0x7ff) - 1023;
+  return exponent + table[(bits >> (52 - kMantissaBits)) & ((1u << kMantissaBits) - 1)];
+}
+
+// The lower edges of the inner bins 1..bins-2 of histograms of these bins (LogHistogram::lower_),
+// made once per set of bins in a process.
+std::shared_ptr<const std::vector<double>> inner_bin_edges(double lowest, std::size_t bins, int per_decade) {
+  static std::mutex mutex;
+  static std::map<std::tuple<double, std::size_t, int>, std::shared_ptr<const std::vector<double>>> made;
+  const std::lock_guard<std::mutex> lock(mutex);
+  auto& edges = made[{lowest, bins, per_decade}];
+  if (edges) return edges;
+  // The formula's bin, which the edges must reproduce.
+  auto bin = [&](double value) {
+    const double position = std::log10(value / lowest) * per_decade;
+    return 1 + std::min(static_cast<std::size_t>(position), bins - 3);
+  };
+  auto lower = std::make_shared<std::vector<double>>(bins - 1, lowest);
+  for (std::size_t k = 2; k + 1 < bins; ++k) {
+    // From the edge's closed form, a few ulps at most from the formula's, to the smallest
+    // value the formula puts in bin k or above.
+    double x = lowest * std::pow(10.0, static_cast<double>(k - 1) / per_decade);
+    if (bin(x) >= k) {
+      for (double y = std::nextafter(x, 0.0); y >= lowest && bin(y) >= k; y = std::nextafter(y, 0.0)) x = y;
+    } else {
+      while (bin(x) < k) x = std::nextafter(x, INFINITY);
+    }
+    (*lower)[k] = x;
+  }
+  edges = std::move(lower);
+  return edges;
+}
 
 }  // namespace
 
@@ -30,21 +78,25 @@ LogHistogram::LogHistogram(double lowest, double highest, int bins_per_decade)
     throw Error("histogram: need 0 < lowest < highest and bins per decade > 0");
   const double decades = std::log10(highest / lowest);
   bins_.assign(static_cast<std::size_t>(std::ceil(decades * per_decade_)) + 2, 0);
+  lower_ = inner_bin_edges(lowest_, bins_.size(), per_decade_);
+}
+
+std::size_t LogHistogram::bin(double value) const {
+  if (value < lowest_) return 0;
+  if (value >= highest_) return bins_.size() - 1;
+  const std::vector<double>& lower = *lower_;
+  const std::size_t last_inner = bins_.size() - 2;
+  const double estimate = (table_log2(value) - table_log2(lowest_)) * per_decade_ * std::log10(2.0);
+  std::size_t k = 1 + static_cast<std::size_t>(std::clamp(estimate, 0.0, static_cast<double>(last_inner - 1)));
+  while (k > 1 && value < lower[k]) --k;
+  while (k < last_inner && value >= lower[k + 1]) ++k;
+  return k;
 }
 
 void LogHistogram::add(double value) {
   if (std::isnan(value)) return;
   if (value < 0) value = 0;
-  std::size_t k;
-  if (value < lowest_) {
-    k = 0;
-  } else if (value >= highest_) {
-    k = bins_.size() - 1;
-  } else {
-    const double position = std::log10(value / lowest_) * per_decade_;
-    k = 1 + std::min(static_cast<std::size_t>(position), bins_.size() - 3);
-  }
-  ++bins_[k];
+  ++bins_[bin(value)];
   ++count_;
   min_ = std::min(min_, value);
   max_ = std::max(max_, value);
