@@ -33,10 +33,10 @@ double norm_sd(const Eigen::Vector3d& force, const Eigen::Matrix3d& covariance, 
   return std::sqrt(std::max(0.0, scale * direction.dot(covariance * direction)));
 }
 
-// The sample with its disturbance (ResidualSample::tau, which it must carry) in place of r,
-// weighed by tau's noise.
-ResidualSample disturbance(const ResidualSample& s) {
-  ResidualSample d;
+// `s` with its disturbance (ResidualSample::tau) in place of r, weighed by tau's noise, into
+// `d` (its storage reused); `s` itself when it carries no disturbance.
+const ResidualSample& disturbance(const ResidualSample& s, ResidualSample& d) {
+  if (s.tau.size() != s.r.size()) return s;
   d.t = s.t;
   d.q = s.q;
   d.r = s.tau;
@@ -565,6 +565,7 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   // with its uncertainty, from the residual the fit weighed.
   double previous_t = 0, previous_norm = 0;
   std::size_t peak = 0;
+  ResidualSample undone;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const Kinematics k = kinematics(samples[i]);
     Eigen::Matrix3d covariance;
@@ -576,7 +577,7 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
       out.force_sd = norm_sd(force, covariance, scale);
     }
     if (samples[i].tau.size() == samples[i].r.size())
-      norm = solve_force(k, disturbance(samples[i]), f.body, out.point, nullptr, nullptr).norm();
+      norm = solve_force(k, disturbance(samples[i], undone), f.body, out.point, nullptr, nullptr).norm();
     if (norm > out.peak_force) out.peak_force = norm, out.t_peak = samples[i].t, peak = i;
     if (i > 0) out.impulse += 0.5 * (norm + previous_norm) * (samples[i].t - previous_t);
     previous_t = samples[i].t;
@@ -594,8 +595,7 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   // where 68% is stated, since what the joints cannot tell apart is already in the link set.
   if (!samples.empty()) {
     const Kinematics k = kinematics(samples[peak]);
-    const ResidualSample& at_peak =
-        samples[peak].tau.size() == samples[peak].r.size() ? disturbance(samples[peak]) : samples[peak];
+    const ResidualSample& at_peak = disturbance(samples[peak], undone);
     Eigen::Matrix3d covariance;
     const Eigen::Vector3d force = solve_force(k, at_peak, f.body, out.point, &covariance, nullptr);
     std::vector<std::pair<double, double>> deviations;  // |force - peak_force|, weight
