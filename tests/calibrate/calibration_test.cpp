@@ -57,8 +57,10 @@ TEST(LogHistogram, QuantilesMatchSortedValuesWithinHalfABin) {
 // which add() no longer evaluates: over values spread evenly in log over every bin, values a few
 // ulps either side of every bin's edge, and the edges' ends.
 TEST(LogHistogram, BinsAreThoseOfTheFormula) {
-  for (const auto& [lowest, highest, per_decade] :
-       {std::tuple{1e-6, 1e5, 1000}, std::tuple{1e-3, 1e7, 200}, std::tuple{0.37, 5.0, 7}}) {
+  for (const auto& bins_case : {std::tuple{1e-6, 1e5, 1000}, std::tuple{1e-3, 1e7, 200}, std::tuple{0.37, 5.0, 7}}) {
+    // (Named variables, not a structured binding: clang 14 cannot capture one in a lambda.)
+    const double lowest = std::get<0>(bins_case), highest = std::get<1>(bins_case);
+    const int per_decade = std::get<2>(bins_case);
     const LogHistogram h(lowest, highest, per_decade);
     const auto bins = static_cast<std::size_t>(std::ceil(std::log10(highest / lowest) * per_decade)) + 2;
     auto formula = [&](double value) -> std::size_t {
