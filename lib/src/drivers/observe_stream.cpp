@@ -273,9 +273,11 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       if (checking && status == SampleStatus::ok && have_good && !after_left_out)
         check.learn(good_t, good_q.data(), good_dq.data(), good_tau.data(), t, q.data(), dq.data(), tau.data());
       good_t = t;
-      good_q = q;
-      good_dq = dq;
-      good_tau = tau;
+      // Swapped, not copied: unpack() writes every element of q, dq and tau anew for the next
+      // row, and nothing reads them before it.
+      good_q.swap(q);
+      good_dq.swap(dq);
+      good_tau.swap(tau);
       have_good = true;
       held_r = r;
       if (friction) {
