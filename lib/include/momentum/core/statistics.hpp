@@ -2,6 +2,8 @@
 // Robust statistics shared by the fitters and the streams.
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -164,6 +166,12 @@ class SortedRunningMedian {
       // The value leaving the window: the first equal to it in the sorted copy (equal values are
       // interchangeable) closes its gap.
       const double old = window_[next_];
+      // The same bits coming in as going out (a log's steady time step, most rows): the sorted
+      // copy and the median stay as they are.
+      if (std::bit_cast<std::uint64_t>(old) == std::bit_cast<std::uint64_t>(value)) {
+        next_ = (next_ + 1) % N;
+        return median_;
+      }
       int at = static_cast<int>(std::lower_bound(sorted_, sorted_ + count_, old) - sorted_);
       std::copy(sorted_ + at + 1, sorted_ + count_, sorted_ + at);
       --count_;
