@@ -53,11 +53,11 @@ TEST(WhiteNoise, QuantisedNoiseIsNotRoundedToTheStep) {
   EXPECT_NEAR(estimate(quantised), with_steps, 0.02 * with_steps);
 }
 
-// RunningMedian selects about its last median: its median must be the one an nth_element over
+// RunningMedian selects by buckets of order keys: its median must be the one an nth_element over
 // the last N values gives (the value selected afresh), bit for bit, whether it is updated after
-// every push (the middle beside the last median), every few, or after more pushes than the
-// window holds (the middle moved far: selected afresh); with tied values, while the window
-// fills, and with a NaN in the window (then selected with nth_element).
+// every push, every few, or after more pushes than the window holds; with tied values, values
+// of both signs and zeros of both signs, values over many decades, while the window fills, and
+// with a NaN in the window (then selected with nth_element).
 TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
   constexpr int kN = 32;
   auto selected = [](const std::vector<double>& history) {
@@ -73,13 +73,16 @@ TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
   std::uniform_real_distribution<double> any(0.0, 1.0);
   std::uniform_int_distribution<int> few(0, 4);
   std::uniform_int_distribution<int> gap(1, 80);  // pushes between updates: up to 2.5 N
+  std::normal_distribution<double> normal(0.0, 1.0);
   int updates = 0;
-  for (int series = 0; series < 3; ++series) {
+  for (int series = 0; series < 5; ++series) {
     RunningMedian<kN> median;
     std::vector<double> history;
     int until_update = 1;
     for (int k = 0; k < 20000; ++k) {
       double v = series == 1 ? 1e-4 * few(rng) : any(rng);
+      if (series == 3) v = few(rng) == 0 ? (few(rng) % 2 ? 0.0 : -0.0) : normal(rng);
+      if (series == 4) v = std::exp(20 * normal(rng));
       if (series == 2 && k % 997 == 500) v = std::nan("");
       median.push(v);
       history.push_back(v);
@@ -96,7 +99,7 @@ TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
       ++updates;
     }
   }
-  EXPECT_GT(updates, 10000);
+  EXPECT_GT(updates, 16000);
   RunningMedian<4> m;
   EXPECT_EQ(m.update(), 0);
   for (double v : {3.0, 1.0, 2.0, 10.0, 0.0}) m.push(v);
