@@ -56,8 +56,8 @@ TEST(WhiteNoise, QuantisedNoiseIsNotRoundedToTheStep) {
 // RunningMedian selects by buckets of order keys: its median must be the one an nth_element over
 // the last N values gives (the value selected afresh), bit for bit, whether it is updated after
 // every push, every few, or after more pushes than the window holds; with tied values, values
-// of both signs and zeros of both signs, values over many decades, while the window fills, and
-// with a NaN in the window (then selected with nth_element).
+// of both signs, zeros of both signs and infinities, values over many decades, while the window
+// fills, and with a NaN in the window (then selected with nth_element).
 TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
   constexpr int kN = 32;
   auto selected = [](const std::vector<double>& history) {
@@ -82,6 +82,7 @@ TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
     for (int k = 0; k < 20000; ++k) {
       double v = series == 1 ? 1e-4 * few(rng) : any(rng);
       if (series == 3) v = few(rng) == 0 ? (few(rng) % 2 ? 0.0 : -0.0) : normal(rng);
+      if (series == 3 && k % 211 == 7) v = k % 2 ? HUGE_VAL : -HUGE_VAL;
       if (series == 4) v = std::exp(20 * normal(rng));
       if (series == 2 && k % 997 == 500) v = std::nan("");
       median.push(v);
