@@ -512,19 +512,32 @@ TEST(Classify, PulseWidthAndLearntRule) {
   EXPECT_NEAR(shape.rise, 0.001 * (19 + 8.0 / 9), 1e-12);
   EXPECT_TRUE(shape.over);
 
-  // The 0.4 s collision is wider than a contact: only a level (over the contacts' largest peak
-  // on joint 1, 7 Nm) gets it right, so the levels are kept.
-  std::vector<mc::ClassExample> examples = {{0.02, {5, 1}, true}, {0.4, {9, 2}, true}, {0.3, {6, 3}, false},
-                                            {0.5, {7, 1}, false}, {0.04, {4, 1}, true}};
+  // Two collisions (0.4 and 0.6 s) are wider than every contact: only a level (the contacts'
+  // largest peak, 6 Nm on joint 1, which two contacts reach) gets them right, and it does so
+  // for examples it was not learnt from: each example left out in turn, the levels of the
+  // others still hold every contact and catch both collisions. So the levels are kept.
+  std::vector<mc::ClassExample> examples = {{0.02, {5, 1}, true},  {0.4, {9, 2}, true},  {0.6, {8, 1}, true},
+                                            {0.04, {4, 1}, true},  {0.3, {6, 1}, false}, {0.5, {6, 1}, false},
+                                            {0.35, {5, 1}, false}, {0.45, {4, 1}, false}};
   const mc::ClassRule rule = mc::learn_rule(examples, 2);
-  EXPECT_NEAR(rule.width, std::sqrt(0.04 * 0.3), 1e-12);  // the widest of the two best cuts
-  EXPECT_EQ(rule.collision_level, (std::vector<double>{7, 3}));
+  EXPECT_NEAR(rule.width, std::sqrt(0.04 * 0.3), 1e-12);
+  EXPECT_EQ(rule.collision_level, (std::vector<double>{6, 1}));
   EXPECT_DOUBLE_EQ(rule.accuracy, 1.0);
+  EXPECT_DOUBLE_EQ(rule.level_probability, 3.0 / 4);  // 2 examples over a level, both collisions
   EXPECT_EQ(rule.rise_exponent, 0.0);  // no example has a rise
   EXPECT_EQ(mc::classify(rule, 0.4, NAN, std::vector<double>{8, 1}), mc::EventClass::collision);  // over a level
   EXPECT_EQ(mc::classify(rule, 0.4, NAN, std::vector<double>{6, 1}), mc::EventClass::contact);
+  // One wide collision, and each joint's level set by one contact alone: in the examples the
+  // levels classify all right, but left out, each of those contacts is over the other
+  // contacts' level (a collision called where a firmer push comes), and that costs more than
+  // the one collision gained. So the levels are left out.
+  const std::vector<mc::ClassExample> lone = {{0.02, {5, 1}, true}, {0.4, {9, 2}, true}, {0.3, {6, 3}, false},
+                                              {0.5, {7, 1}, false}, {0.04, {4, 1}, true}};
+  EXPECT_TRUE(mc::learn_rule(lone, 2).collision_level.empty());
+  EXPECT_DOUBLE_EQ(mc::learn_rule(lone, 2).accuracy, 0.8);
   // Levels that teach nothing are left out.
   examples[1].width = 0.05;
+  examples[2].width = 0.06;
   EXPECT_TRUE(mc::learn_rule(examples, 2).collision_level.empty());
   const std::vector<mc::ClassExample> one_class = {{0.1, {1, 1}, true}};
   EXPECT_THROW(mc::learn_rule(one_class, 2), momentum::Error);

@@ -196,9 +196,16 @@ std::pair<double, double> learn_rise_weight(std::span<const ClassExample> exampl
   return {(beta[2] / sd[2]) / (beta[1] / sd[1]), std::exp(mean[2])};
 }
 
-}  // namespace
+// The share of the examples the rule classifies right.
+double accuracy(const ClassRule& rule, std::span<const ClassExample> examples) {
+  int right = 0;
+  for (const auto& e : examples) right += (classify(rule, e.width, e.rise, e.peaks) == EventClass::collision) == e.collision;
+  return static_cast<double>(right) / static_cast<double>(examples.size());
+}
 
-ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints) {
+// The rule without levels (rise weight, cut, slope, accuracy) and, per joint, the largest peak
+// a contact among the examples reached (the candidate levels).
+std::pair<ClassRule, std::vector<double>> learn_cut(std::span<const ClassExample> examples, std::size_t joints) {
   ClassRule rule;
   std::tie(rule.rise_exponent, rule.rise_reference) = learn_rise_weight(examples);
   if (rule.rise_exponent == 0) rule.rise_reference = 0;
@@ -228,35 +235,57 @@ ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints)
     }
   }
   if (best_correct < 0) throw Error("learning contact and collision needs examples with different widths");
-  // Levels: the largest peak an example contact reached, per joint.
   std::vector<double> level(joints, 0.0);
   for (const auto& e : examples)
     if (!e.collision)
       for (std::size_t j = 0; j < std::min(joints, e.peaks.size()); ++j)
         level[j] = std::max(level[j], std::abs(e.peaks[j]));
-  auto accuracy = [&](const ClassRule& r) {
-    int right = 0;
-    for (const auto& e : examples)
-      right += (classify(r, e.width, e.rise, e.peaks) == EventClass::collision) == e.collision;
-    return static_cast<double>(right) / static_cast<double>(examples.size());
-  };
-  rule.accuracy = accuracy(rule);
+  rule.accuracy = accuracy(rule, examples);
   rule.slope = learn_slope(widths, rule.width);
-  // The levels only where they classify the examples better than the width alone: the largest
-  // contact of a campaign is a poor bound on the next campaign's, so a level that teaches
-  // nothing here would only call a firm push a collision there.
-  ClassRule with_levels = rule;
-  if (std::all_of(level.begin(), level.end(), [](double v) { return v > 0; })) with_levels.collision_level = level;
-  with_levels.accuracy = accuracy(with_levels);
+  return {rule, level};
+}
+
+}  // namespace
+
+ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints) {
+  auto [rule, level] = learn_cut(examples, joints);
+  auto usable = [](const std::vector<double>& l) { return std::all_of(l.begin(), l.end(), [](double v) { return v > 0; }); };
+  if (!usable(level)) return rule;
+  // The levels only where they classify examples they were not learnt from better than the
+  // cut alone, each example left out in turn (both rules learnt anew without it). In the
+  // examples themselves a level can only help: no contact is over the largest contact's peak.
+  // Left out, every contact that alone set a joint's level is over the level of the others,
+  // as a new campaign's firmest push will be over this one's: a level that rescues fewer
+  // collisions than that calls pushes collisions elsewhere (two pushes of the MuJoCo UR5's
+  // second campaign over the first campaign's wrist levels).
+  int right_by_cut = 0, right_with_levels = 0;
+  std::vector<ClassExample> others;
+  for (std::size_t i = 0; i < examples.size(); ++i) {
+    others.assign(examples.begin(), examples.end());
+    others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
+    std::pair<ClassRule, std::vector<double>> without;
+    try {
+      without = learn_cut(others, joints);
+    } catch (const Error&) {
+      continue;  // its class alone, or no two widths left: this example cannot be tested
+    }
+    const ClassExample& e = examples[i];
+    right_by_cut += (classify(without.first, e.width, e.rise, e.peaks) == EventClass::collision) == e.collision;
+    if (usable(without.second)) without.first.collision_level = without.second;
+    right_with_levels += (classify(without.first, e.width, e.rise, e.peaks) == EventClass::collision) == e.collision;
+  }
+  if (right_with_levels <= right_by_cut) return rule;
+  rule.collision_level = level;
+  rule.accuracy = accuracy(rule, examples);
   int over = 0, over_collisions = 0;
   for (const auto& e : examples)
     for (std::size_t j = 0; j < std::min(joints, e.peaks.size()); ++j)
-      if (!with_levels.collision_level.empty() && std::abs(e.peaks[j]) > with_levels.collision_level[j]) {
+      if (std::abs(e.peaks[j]) > level[j]) {
         ++over, over_collisions += e.collision ? 1 : 0;
         break;
       }
-  with_levels.level_probability = (over_collisions + 1.0) / (over + 2.0);
-  return with_levels.accuracy > rule.accuracy ? with_levels : rule;
+  rule.level_probability = (over_collisions + 1.0) / (over + 2.0);
+  return rule;
 }
 
 std::optional<ClassRule> rule_from_profile(const nlohmann::json& document, std::string_view signal,

@@ -17,8 +17,9 @@
 // --classes): how much the rise counts, from a logistic regression of the class on the
 // logarithms of width and rise over a labelled campaign; the cut on that combination that
 // separates its collisions from its contacts best; and per joint the largest residual that a
-// contact of that campaign reached (when these levels improve on the cut). Profile entry,
-// beside the thresholds of the signal it was calibrated on:
+// contact of that campaign reached (when these levels classify examples they were not learnt
+// from better than the cut alone, each left out in turn). Profile entry, beside the
+// thresholds of the signal it was calibrated on:
 //
 //   "thresholds": {"mu": {..., "classify": {"width": 0.15, "rise_exponent": 0.6,
 //                                           "rise_reference": 0.09, "collision": [40, 35, 12],
@@ -104,11 +105,12 @@ struct ClassExample {
 // often a collision) or an example has no rise. The cut: the rise-weighted width that
 // classifies the examples best (the geometric middle between the two neighbouring values
 // where the accuracy is highest; ties: the widest gap). Per joint the largest peak of a
-// contact as its collision level, kept only when the levels classify the examples better
-// than the cut alone. The slope: the maximum a posteriori of a logistic regression of the class
-// on ln(rise-weighted width / width) through the cut (no intercept: the probability is 0.5
-// where the rule turns), the slope of the standardised feature with a unit normal prior as
-// above. Throws momentum::Error without at least one example of each class.
+// contact as its collision level, kept only when, each example left out in turn and both rules
+// learnt again without it, the levels classify more of the examples left out right than the
+// cut alone (in the examples themselves a level can only help). The slope: the maximum a
+// posteriori of a logistic regression of the class on ln(rise-weighted width / width) through
+// the cut (no intercept: the probability is 0.5 where the rule turns), the slope of the
+// standardised feature with a unit normal prior as above. Throws momentum::Error without at least one example of each class.
 ClassRule learn_rule(std::span<const ClassExample> examples, std::size_t joints);
 
 // Reads thresholds/<signal>/classify of a profile document; nullopt when absent. Throws
