@@ -15,15 +15,17 @@
 #      uncertainty. Before the budget, hours 1, 3, 5, 7 (multisine only) differed from all 8
 #      by up to 2.9 of its uncertainty: the half must keep the day's mix of motion, since the
 #      friction model's error differs between them (--dynfit-all: every hour);
-# then the commands of nightly-recalibrate.sh --jobs 2, with the corrected profile in place:
-#   2. mo-observe --strict every hour with it (2 at a time);
-#   3. mo-lugre-fit --seed 1 on the 1st, 3rd, ... hours (the calibration part, as the script
-#      splits);
-#   4. mo-observe --strict every hour again with the fitted friction (2 at a time);
-#   5. mo-calibrate --reject-contact --strict on the calibration part;
-#   6. mo-detect on the 2nd, 4th, ... hours (the check part) with the candidate, and with the
-#      profile in place: the candidate's count of events must be one its calibration's stated
-#      false-alarm rate makes likelier than 0.01 over those hours (the script's rule).
+# then the commands of nightly-recalibrate.sh --jobs 2, with the corrected profile in place,
+# where every observed stream goes through a named pipe to the one tool that reads it (none is
+# written to a file):
+#   2. mo-lugre-fit --seed 1 on the 1st, 3rd, ... hours (the calibration part, as the script
+#      splits), observed by mo-observe --strict as it reads them;
+#   3. mo-calibrate --reject-contact --strict on the calibration part, observed again with the
+#      fitted friction;
+#   4. mo-detect on the 2nd, 4th, ... hours (the check part), observed with the candidate and
+#      with the profile in place (2 logs at a time): the candidate's count of events must be one
+#      its calibration's stated false-alarm rate makes likelier than 0.01 over those hours (the
+#      script's rule).
 # The issue's targets on 2 cores: the whole night under 2 minutes and under 100 MB.
 # --script: then runs share/momentum/examples/nightly-recalibrate.sh --jobs 2 --torque-held on
 # the same day (a copy of the profile; its own split: dynfit on the calibration part) and prints
@@ -111,49 +113,61 @@ step "1. mo-dynfit, ${#dynfit_logs[@]} h" \
 corrected=$work/night/corrected.json
 [[ -s $corrected ]] || { echo "bench-nightly: mo-dynfit wrote no profile (see $work/night/dynfit.json)" >&2; cp "$profile" "$corrected"; }
 
-# (The commands go through a file: a pipe into step would run it in a subshell, losing the totals.)
-for f in "${logs[@]}"; do
-  echo "mo-observe -q --strict -p '$corrected' --output-format bin -o '$work/night/old-$(basename "$f")' '$f'"
-done > "$work/night/commands"
-step "2. mo-observe, ${#logs[@]} h, 2 at a time" -P < "$work/night/commands"
+# Runs a command on the logs observed with a profile, each streamed through a named pipe
+# $work/night/PREFIX-NAME that the command (given those paths after its own arguments) reads as
+# the observer writes it, as nightly-recalibrate.sh does: no observed stream goes to a file.
+on_streams() {  # profile prefix log... -- command...
+  local profile=$1 prefix=$2 f fd status=0
+  shift 2
+  local -a pipes=() pids=()
+  while [[ $1 != -- ]]; do
+    pipes+=("$work/night/$prefix-$(basename "$1")")
+    rm -f "${pipes[-1]}" && mkfifo "${pipes[-1]}"
+    mo-observe -q --strict -p "$profile" --output-format bin -o "${pipes[-1]}" "$1" &
+    pids+=($!)
+    shift
+  done
+  shift
+  "$@" "${pipes[@]}" || status=$?
+  # A command that stopped early left observers waiting for it to open their pipes.
+  for f in "${pipes[@]}"; do exec {fd}<> "$f" && exec {fd}<&-; done
+  for f in "${pids[@]}"; do wait "$f" || status=1; done
+  rm -f "${pipes[@]}"
+  return $status
+}
+export -f on_streams
 
-old_calibration=()
-for f in "${calibration[@]}"; do old_calibration+=("$work/night/old-$(basename "$f")"); done
-step "3. mo-lugre-fit, ${#calibration[@]} h" \
-  mo-lugre-fit -q --seed 1 -p "$corrected" -o "$work/night/fitted.json" --report "$work/night/lugre.json" "${old_calibration[@]}"
+step "2. mo-observe -> mo-lugre-fit, ${#calibration[@]} h" \
+  bash -c 'on_streams "$@"' on_streams "$corrected" mid "${calibration[@]}" -- \
+  mo-lugre-fit -q --seed 1 -p "$corrected" -o "$work/night/fitted.json" --report "$work/night/lugre.json"
 fitted=$work/night/fitted.json
 [[ -s $fitted ]] || { echo "bench-nightly: mo-lugre-fit wrote no profile" >&2; exit 1; }
 
-for f in "${calibration[@]}" "${check[@]}"; do
-  echo "mo-observe -q --strict -p '$fitted' --output-format bin -o '$work/night/new-$(basename "$f")' '$f'"
-done > "$work/night/commands"
-step "4. mo-observe with the fitted friction, ${#logs[@]} h" -P < "$work/night/commands"
-
-new_calibration=() new_check=()
-for f in "${calibration[@]}"; do new_calibration+=("$work/night/new-$(basename "$f")"); done
-for f in "${check[@]}"; do new_check+=("$work/night/new-$(basename "$f")"); done
-step "5. mo-calibrate, ${#calibration[@]} h" \
+step "3. mo-observe -> mo-calibrate, ${#calibration[@]} h" \
+  bash -c 'on_streams "$@"' on_streams "$fitted" new "${calibration[@]}" -- \
   sh -c 'report=$1; shift; exec mo-calibrate "$@" > "$report"' sh "$work/night/calibration.txt" \
-  -q --reject-contact --strict -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}"
+  -q --reject-contact --strict -p "$fitted" -o "$work/night/calibrated.json"
 
 if [[ ! -s $work/night/calibrated.json ]]; then
   # The script would end the night here, keeping the profile in place (see calibration.txt
   # for the outlier): the check is timed on thresholds calibrated without --reject-contact,
   # made here untimed.
   echo "   mo-calibrate refused the calibration part: nightly-recalibrate.sh keeps the profile here;" \
-    "step 6 runs on thresholds calibrated without --reject-contact (not timed)"
-  mo-calibrate -q --strict -p "$fitted" -o "$work/night/calibrated.json" "${new_calibration[@]}" \
+    "step 4 runs on thresholds calibrated without --reject-contact (not timed)"
+  on_streams "$fitted" new "${calibration[@]}" -- mo-calibrate -q --strict -p "$fitted" -o "$work/night/calibrated.json" \
     > "$work/night/calibration-accepting.txt" || true
 fi
 
-# (The profile in place may hold no thresholds: mo-detect's status 2, which the script counts
-# as none.)
+# The check part observed and judged by the candidate and by the profile in place, 2 logs at a
+# time. (The profile in place may hold no thresholds: mo-detect's status 2, which the script
+# counts as none.) (The commands go through a file: a pipe into step would run it in a
+# subshell, losing the totals.)
 for f in "${check[@]}"; do
-  new=$work/night/new-$(basename "$f") old=$work/night/old-$(basename "$f")
-  echo "mo-detect -q -p '$work/night/calibrated.json' '$new' > '$new.events.csv'; [ \$? -le 1 ]"
-  echo "mo-detect -q -p '$corrected' '$old' > '$old.events.csv' 2> /dev/null; [ \$? -le 2 ]"
+  name=$(basename "$f")
+  echo "on_streams '$work/night/calibrated.json' new '$f' -- mo-detect -q -p '$work/night/calibrated.json' > '$work/night/new-$name.events.csv'; [ \$? -le 1 ]"
+  echo "on_streams '$profile' old '$f' -- mo-detect -q -p '$profile' > '$work/night/old-$name.events.csv' 2> /dev/null; [ \$? -le 2 ]"
 done > "$work/night/commands"
-step "6. mo-detect on the check part, ${#check[@]} h" -P < "$work/night/commands"
+step "4. mo-observe -> mo-detect on the check part, ${#check[@]} h" -P < "$work/night/commands"
 events=$(cat "$work"/night/new-*.events.csv 2>/dev/null | grep -c ',onset,' || true)
 report=$work/night/calibration.txt
 [[ -s $work/night/calibration-accepting.txt ]] && report=$work/night/calibration-accepting.txt

@@ -117,6 +117,11 @@ day broken 41 42 43 44
 head -c 20000 "$tmp/days/broken/log-3.csv" > "$tmp/days/broken/log-3.cut" &&
   printf '\nnot,a,row\n' >> "$tmp/days/broken/log-3.cut" &&
   mv "$tmp/days/broken/log-3.cut" "$tmp/days/broken/log-3.csv"
+# The same cut in a check log (the 2nd of night 1's): found when the check part is observed,
+# after the calibration.
+mkdir -p "$tmp/days/broken-check" && cp "$tmp/days/clean1/"log-*.csv "$tmp/days/broken-check/" &&
+  head -c 20000 "$tmp/days/clean1/log-2.csv" > "$tmp/days/broken-check/log-2.csv" &&
+  printf '\nnot,a,row\n' >> "$tmp/days/broken-check/log-2.csv"
 day clean2 51 52 53 54
 day clean3 61 62 63 64
 plant="$tmp/worn/paper-arm.json" day worn 71 72 73 74
@@ -172,6 +177,11 @@ night "night 4, broken log" broken
 check_json "night 4: failed, the broken log named" '
 assert r["outcome"] == "failed" and r["exit_status"] == 1, r
 assert r["reason"] == f"cannot observe {tmp}/days/broken/log-3.csv (broken log?)", r["reason"]'
+night "night 4b, broken check log" broken-check
+check_json "night 4b: failed, the broken log named" '
+assert r["outcome"] == "failed" and r["exit_status"] == 1, r
+assert r["reason"] == f"cannot observe {tmp}/days/broken-check/log-2.csv (broken log?)", r["reason"]
+assert r["profile_version"]["sha256_after"] == r["profile_version"]["sha256_before"], r'
 night "night 5, clean" clean2
 check_json "night 5: installed, both profiles keep their promise" '
 assert r["outcome"] == "installed" and r["exit_status"] == 0 and r["reason"] is None, r
@@ -265,5 +275,7 @@ assert r["profile_version"]["sha256_after"] == r["profile_version"]["sha256_befo
 # Nothing stays behind: no candidate, no temporary file beside the target.
 (cd "$tmp" && ls -A etc store)
 # The log names the day's logs and the profile, never the work files deleted at exit.
+# No observer is left waiting for a reader that went away.
+echo "observers still running: $(pgrep -c -f -- "-o - $tmp/days/")"
 echo "log lines naming work files: $(grep -c -e 'momentum-nightly\.' -e '\.candidate\.json' "$backups/nightly.log")"
 ((failures == 0)) || echo "$failures checks failed"

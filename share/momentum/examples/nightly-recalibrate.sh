@@ -12,17 +12,19 @@
 #  2. identifies corrections to the URDF's inertial parameters on the calibration part
 #     (mo-dynfit, its held-out check inside); when the fit fails or explains the held-out data
 #     worse than the corrections in place, those are kept (--no-dynfit skips the step);
-#  3. observes the check part with the profile in place, and the calibration part with the
-#     corrected model (mo-observe --strict: a broken log stops the night, the profile stays);
-#  4. fits friction on the calibration part (mo-lugre-fit); when the fit is refused (worse
-#     than the friction in place) or fails, the current friction is kept;
+#  3. observes the calibration part with the corrected model (mo-observe --strict: a broken
+#     log stops the night, the profile stays); every observed stream goes through a pipe to
+#     the one tool that reads it, none to a file;
+#  4. fits friction on it (mo-lugre-fit); when the fit is refused (worse than the friction in
+#     place) or fails, the current friction is kept;
 #  5. observes the calibration part again with the candidate's friction and calibrates the
 #     thresholds (mo-calibrate --reject-contact: a log that looks like it holds a contact
 #     stops the night, the profile stays);
-#  6. judges the candidate and the profile in place on the check part, each by its own
-#     promise: mo-calibrate states the false alarms per hour a calibration's thresholds stand
-#     for (the candidate's report; for the profile in place, the statement its provenance
-#     records, else the rate its calibration asked of each joint times the joints). A profile
+#  6. observes the check part with the candidate and with the profile in place, and judges
+#     each there (mo-detect) by its own promise: mo-calibrate states the false alarms per hour
+#     a calibration's thresholds stand for (the candidate's report; for the profile in place,
+#     the statement its provenance records, else the rate its calibration asked of each joint
+#     times the joints). A profile
 #     breaks its promise when that rate, over the hours of the check part, makes its count of
 #     events less likely than --check-level (default 0.01; on a few minutes of logs, any event
 #     does). Then:
@@ -114,7 +116,8 @@ usage: nightly-recalibrate.sh -p PROFILE [--logs DIR | LOG...] [options]
   --no-friction-fit       keep the friction in place, recalibrate the thresholds only
   --lock-wait S           wait at most S s for the profile's lock at install (default 600)
   --seed N                seed of the friction fit (default 1)
-  -j, --jobs N            logs observed at a time (default 1: a fleet runs one night per core)
+  -j, --jobs N            check logs observed and judged at a time (default 1: a fleet runs
+                          one night per core)
   -n, --dry-run           do everything but install
   --json FILE             append one JSON line saying what happened to FILE (- for standard
                           output; then the tools' own standard output goes to standard error)
@@ -406,10 +409,14 @@ fi
 stamp() { date -u +%Y-%m-%dT%H:%M:%SZ; }
 say() { echo "$(stamp) $*" >> "$log_file"; [[ -t 2 ]] && echo "$*" >&2; return 0; }
 work=""
+declare -A stream_pid=()  # observers writing into named pipes in $work (stream_logs)
 candidate="$folder/.$name.candidate.json"
 cleanup() {
   local status=$?
   ((json_ready)) && write_json "$status"
+  # Observers still waiting for their reader (the night cut short) end with it.
+  local pid
+  for pid in "${stream_pid[@]}"; do kill "$pid" 2> /dev/null; done
   [[ -n $work ]] && rm -rf "$work"
   [[ -n $install_temp ]] && rm -f "$install_temp"
   # The candidate is this run's only while it holds the lock (another run's otherwise).
@@ -485,30 +492,49 @@ done
 say "calibration part: ${calibrate[*]}"
 say "check part: ${check[*]}"
 
-# Observes the logs of the given indices with a profile into $work/PREFIX-i.bin, --jobs at a
-# time; their messages go to the log in the logs' order. Returns 1 at the first batch holding a
-# log that could not be observed (failed_log: its name).
+# Observes the logs of the given indices with a profile, each into a named pipe
+# $work/PREFIX-i.bin that one tool (the fit, the calibration, a detector) reads as the observer
+# writes it: a night at 1 kHz wrote 14 GB of observed streams to read each back once, and the
+# disk, not the observer, set the night's pace (8 hours: 73 s, 53 of them observing). Each
+# mo-observe starts when its reader opens the pipe (a tool reading several, in turn); its
+# messages go to $work/observe-PREFIX-i.err and its exit status to $work/PREFIX-i.status.
+# end_streams waits for them.
 failed_log=""
-observe_logs() {  # profile prefix index...
-  local p=$1 prefix=$2 k j status=0
+stream_logs() {  # profile prefix index...
+  local p=$1 prefix=$2 j pipe
   shift 2
-  local -a all=("$@") batch pids
-  for ((k = 0; k < ${#all[@]}; k += jobs)); do
-    batch=("${all[@]:k:jobs}") pids=()
-    for j in "${batch[@]}"; do
-      mo-observe -q --strict -p "$p" --output-format bin -o "$work/$prefix-$j.bin" "${logs[j]}" \
-        2> "$work/observe-$j.err" &
-      pids+=($!)
-    done
-    for j in "${!batch[@]}"; do
-      if ! wait "${pids[j]}"; then
-        status=1
-        [[ -n $failed_log ]] || failed_log=${logs[batch[j]]}
-      fi
-      to_log < "$work/observe-${batch[j]}.err"
-    done
-    ((status == 0)) || return 1
+  for j in "$@"; do
+    pipe=$work/$prefix-$j.bin
+    rm -f "$pipe" "$work/$prefix-$j.status"
+    mkfifo "$pipe" || keep_old "cannot make the pipe $pipe"
+    {
+      mo-observe -q --strict -p "$p" --output-format bin -o - "${logs[j]}" 2> "$work/observe-$prefix-$j.err"
+      echo $? > "$work/$prefix-$j.status"
+    } > "$pipe" &
+    stream_pid[$prefix-$j]=$!
   done
+}
+# Once the tool reading the pipes of the given indices is done: waits for their observers;
+# their messages go to the log in the logs' order. Returns 1 when a log could not be observed
+# (failed_log: the first such).
+end_streams() {  # prefix index...
+  local prefix=$1 j fd status=0
+  shift
+  for j in "$@"; do
+    # A reader that stopped early (an error) did not open the pipes after it, whose observers
+    # still wait to start: a reader that comes and goes lets each start, meet a closed pipe and
+    # end (quietly, status 0). (Opened for reading and writing, the pipe does not wait for a
+    # writer, which the observer may no longer be.)
+    exec {fd}<> "$work/$prefix-$j.bin" && exec {fd}<&-
+    wait "${stream_pid[$prefix-$j]}"
+    unset "stream_pid[$prefix-$j]"
+    to_log < "$work/observe-$prefix-$j.err"
+    if [[ $(cat "$work/$prefix-$j.status" 2> /dev/null) != 0 ]]; then
+      status=1
+      [[ -n $failed_log ]] || failed_log=${logs[j]}
+    fi
+  done
+  return $status
 }
 even=() odd=()
 for i in "${!logs[@]}"; do
@@ -534,17 +560,15 @@ if ((fit_dynamics)); then
   fi
 fi
 
-# 3. Observe: the check part with the profile in place (to compare with), the calibration part
-# with the corrected model (the friction is fitted on its residuals).
-observe_logs "$profile" old "${odd[@]}" || keep_old "cannot observe $failed_log (broken log?)"
-observe_logs "$candidate" mid "${even[@]}" || keep_old "cannot observe $failed_log (broken log?)"
-mapfile -t mid_calibration < <(observed mid "${even[@]}")
-mapfile -t old_check < <(observed old "${odd[@]}")
-
-# 4. Friction.
+# 3.-4. Friction, fitted on the calibration part observed with the corrected model.
 # (A refused or failed fit leaves the candidate as it was: --update replaces it in one rename.)
+mapfile -t mid_calibration < <(observed mid "${even[@]}")
 if ((fit_friction)); then
-  if run mo-lugre-fit -p "$candidate" --update --seed "$seed" "${mid_calibration[@]}"; then
+  stream_logs "$candidate" mid "${even[@]}"
+  run mo-lugre-fit -p "$candidate" --update --seed "$seed" "${mid_calibration[@]}"
+  fitted=$?
+  end_streams mid "${even[@]}" || keep_old "cannot observe $failed_log (broken log?)"
+  if ((fitted == 0)); then
     say "friction refitted (report above in this log)"
   else
     say "friction fit refused or failed (see above): keeping the friction in place"
@@ -554,13 +578,21 @@ fi
 # 5. Thresholds, on residuals compensated with the candidate's friction (without a friction
 # fit, the corrected model's residuals are already those).
 if ((fit_friction)); then
-  observe_logs "$candidate" new "${even[@]}" || keep_old "cannot observe $failed_log with the candidate"
-  mapfile -t new_calibration < <(observed new "${even[@]}")
+  prefix=new
+  stream_logs "$candidate" new "${even[@]}"
 else
-  new_calibration=("${mid_calibration[@]}")
+  prefix=mid
+  stream_logs "$candidate" mid "${even[@]}"
 fi
-if ! run mo-calibrate -q -p "$candidate" --reject-contact --strict "${calibrate_options[@]}" "${new_calibration[@]}" \
-    > "$work/calibration.txt"; then
+mapfile -t new_calibration < <(observed "$prefix" "${even[@]}")
+run mo-calibrate -q -p "$candidate" --reject-contact --strict "${calibrate_options[@]}" "${new_calibration[@]}" \
+  > "$work/calibration.txt"
+calibration_status=$?
+if ! end_streams "$prefix" "${even[@]}"; then
+  [[ $prefix == new ]] && keep_old "cannot observe $failed_log with the candidate"
+  keep_old "cannot observe $failed_log (broken log?)"
+fi
+if ((calibration_status != 0)); then
   to_log < "$work/calibration.txt"
   keep_old --refused "calibration refused or failed (a contact in the calibration logs?)"
 fi
@@ -568,30 +600,51 @@ to_log < "$work/calibration.txt"
 calibrated=1
 
 # 6. Check: events on the check part, candidate and profile in place.
-# Counts the events a profile raises on observed streams of the check part: prints the number
-# of events and the hours the streams cover, or "none" when the detector cannot run with that
-# profile (no thresholds); the logs with events and the times of detection go to
-# $work/alarms-LABEL.tsv (log, events, the first 20 t_detect in s).
-events() {  # label profile prefix index...
-  local label=$1 p=$2 prefix=$3 total=0 seconds=0 n s status i
+# Runs mo-detect with a profile on the check part's logs as they are observed with it, --jobs
+# logs at a time: per log i, its events go to $work/LABEL-i.csv, its standard error to
+# $work/LABEL-i.stats and its exit status to $work/LABEL-i.status. Returns 1 when a log could not
+# be observed (failed_log).
+detect_logs() {  # label profile prefix index...
+  local label=$1 p=$2 prefix=$3 k j
   shift 3
+  local -a all=("$@") batch pids
+  for ((k = 0; k < ${#all[@]}; k += jobs)); do
+    batch=("${all[@]:k:jobs}") pids=()
+    stream_logs "$p" "$prefix" "${batch[@]}"
+    for j in "${batch[@]}"; do
+      {
+        mo-detect -q --stats -p "$p" "$work/$prefix-$j.bin" > "$work/$label-$j.csv" 2> "$work/$label-$j.stats"
+        echo $? > "$work/$label-$j.status"
+      } &
+      pids+=($!)
+    done
+    wait "${pids[@]}"
+    end_streams "$prefix" "${batch[@]}" || return 1
+  done
+}
+# Counts the events detect_logs found with a profile: prints the number of events and the hours
+# the streams cover, or "none" when the detector could not run with that profile (no
+# thresholds); the logs with events and the times of detection go to $work/alarms-LABEL.tsv
+# (log, events, the first 20 t_detect in s).
+events() {  # label index...
+  local label=$1 total=0 seconds=0 n s status i
+  shift
   : > "$work/alarms-$label.tsv"
   for i in "$@"; do
-    mo-detect -q --stats -p "$p" "$work/$prefix-$i.bin" > "$work/events.csv" 2> "$work/detect.stats"
-    status=$?
-    grep -v '^mo-detect: ' "$work/detect.stats" >> "$work/detect.err"
+    status=$(cat "$work/$label-$i.status")
+    grep -v '^mo-detect: ' "$work/$label-$i.stats" >> "$work/detect.err"
     # 0: no collision, 1: collisions; anything else: the detector could not judge the log.
-    if ((status != 0 && status != 1)); then
+    if [[ $status != 0 && $status != 1 ]]; then
       echo none
       return
     fi
-    n=$(grep -c ',onset,' "$work/events.csv")
-    s=$(sed -n 's/^mo-detect: [0-9]* rows over \([^ ]*\) s,.*/\1/p' "$work/detect.stats")
+    n=$(grep -c ',onset,' "$work/$label-$i.csv")
+    s=$(sed -n 's/^mo-detect: [0-9]* rows over \([^ ]*\) s,.*/\1/p' "$work/$label-$i.stats")
     total=$((total + n))
     seconds=$(awk -v a="$seconds" -v b="${s:-0}" 'BEGIN { printf "%.6f", a + b }')
     if ((n > 0)); then
       printf '%s\t%d\t%s\n' "${logs[i]}" "$n" \
-        "$(awk -F, '$5 == "onset" && ++k <= 20 { printf "%s%s", sep, $2; sep = " " }' "$work/events.csv")" \
+        "$(awk -F, '$5 == "onset" && ++k <= 20 { printf "%s%s", sep, $2; sep = " " }' "$work/$label-$i.csv")" \
         >> "$work/alarms-$label.tsv"
     fi
   done
@@ -613,9 +666,10 @@ alarm_list() {  # alarms-file
       printf "%s%s at %s s%s", sep, $1, times, more; sep = "; " }
     END { if (NR > 5) printf "; %d more logs", NR - 5 }' "$1"
 }
-observe_logs "$candidate" new "${odd[@]}" || keep_old "cannot observe $failed_log with the candidate"
-read -r new_events check_hours < <(events candidate "$candidate" new "${odd[@]}")
-read -r old_events _ < <(events in_place "$profile" old "${odd[@]}")
+detect_logs in_place "$profile" old "${odd[@]}" || keep_old "cannot observe $failed_log (broken log?)"
+detect_logs candidate "$candidate" new "${odd[@]}" || keep_old "cannot observe $failed_log with the candidate"
+read -r new_events check_hours < <(events candidate "${odd[@]}")
+read -r old_events _ < <(events in_place "${odd[@]}")
 if [[ $new_events == none ]]; then
   to_log < "$work/detect.err"
   keep_old "the candidate cannot run the detector (see above)"
