@@ -290,6 +290,33 @@ TEST(Output, ADeviceIsWrittenNotReplaced) {
   EXPECT_TRUE(S_ISCHR(st.st_mode));
 }
 
+// A named pipe is grown to 1 MiB (where Linux allows it) and stays a pipe: a megabyte goes in
+// with the reader not yet reading.
+TEST(Output, ANamedPipeIsGrownToHoldAMegabyte) {
+  Folder dir;
+  const std::string pipe = (dir.path / "stream.bin").string();
+  ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+  // Read and write: opens without waiting for a writer, and keeps the pipe open.
+  const int reader = ::open(pipe.c_str(), O_RDWR | O_NONBLOCK);
+  ASSERT_GE(reader, 0);
+  EXPECT_EQ(::fcntl(reader, F_GETPIPE_SZ), 65536);
+  int limit = 0;
+  std::ifstream("/proc/sys/fs/pipe-max-size") >> limit;
+  {
+    OutputFile out(pipe);
+    EXPECT_TRUE(out.interactive());
+    if (limit >= (1 << 20)) {
+      ASSERT_EQ(::fcntl(reader, F_GETPIPE_SZ), 1 << 20);  // (else the write below would wait)
+      out.write(std::string(1 << 20, 'x'));
+    }
+    out.close();
+  }
+  struct stat st {};
+  ASSERT_EQ(::stat(pipe.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  ::close(reader);
+}
+
 TEST(Output, AFullDiskIsAnErrorNamingTheFile) {
   if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
   OutputFile full("/dev/full");
