@@ -24,10 +24,9 @@
 #     each there (mo-detect) by its own promise: mo-calibrate states the false alarms per hour
 #     a calibration's thresholds stand for (the candidate's report; for the profile in place,
 #     the statement its provenance records, else the rate its calibration asked of each joint
-#     times the joints). A profile
-#     breaks its promise when that rate, over the hours of the check part, makes its count of
-#     events less likely than --check-level (default 0.01; on a few minutes of logs, any event
-#     does). Then:
+#     times the joints). A profile breaks its promise when that rate, over the hours of the
+#     check part, makes its count of events less likely than --check-level (default 0.01; on a
+#     few minutes of logs, any event does). Then:
 #     - the candidate breaks its promise and the profile in place keeps its (or states none):
 #       refused;
 #     - both break theirs: the night ends ALARMING (exit status 3), naming the logs and the
