@@ -140,13 +140,16 @@ c = r["check_events"]
 assert c["candidate"] == 0 and c["candidate_keeps_promise"] is True, c
 # The paper arm as shipped has no thresholds: nothing in place to judge.
 assert c["in_place"] is None and c["in_place_keeps_promise"] is None and c["in_place_expected"] is None, c'
-python3 - "$profile" <<'EOF'
+python3 - "$profile" "$tmp" <<'EOF'
 import json, re, sys
 # The profile keeps its comments (whole lines here) through the updates.
 p = json.loads(re.sub(r"(?m)^\s*//.*$", "", open(sys.argv[1]).read()))
 print("after night 1: friction", p.get("friction", {}).get("model"), "for", len(p["friction"]["joints"]), "joints;",
       "thresholds for", ",".join(sorted(p["thresholds"])), ";",
       "provenance", " ".join(e["tool"] for e in p["provenance"]))
+# What the fit and the calibration read: the day's logs, not the night's work files.
+for e in p["provenance"]:
+    print(f"  {e['tool']} read", "; ".join(log.replace(sys.argv[2], "TMP") for log in e["details"]["logs"]))
 EOF
 # A contaminated night: a collision in a calibration log.
 night "night 2, collision in a calibration log" collision-calibration
@@ -274,8 +277,10 @@ assert r["profile_version"]["sha256_after"] == r["profile_version"]["sha256_befo
 
 # Nothing stays behind: no candidate, no temporary file beside the target.
 (cd "$tmp" && ls -A etc store)
-# The log names the day's logs and the profile, never the work files deleted at exit.
 # No observer is left waiting for a reader that went away.
 echo "observers still running: $(pgrep -c -f -- "-o - $tmp/days/")"
+# The profiles' provenance and the log name the day's logs and the profile, never the work
+# files deleted at exit.
+echo "provenance entries naming work files: $(cat "$profile" "$backups"/paper-arm.*.json | grep -c -e 'momentum-nightly\.')"
 echo "log lines naming work files: $(grep -c -e 'momentum-nightly\.' -e '\.candidate\.json' "$backups/nightly.log")"
 ((failures == 0)) || echo "$failures checks failed"

@@ -597,6 +597,18 @@ if ((calibration_status != 0)); then
 fi
 to_log < "$work/calibration.txt"
 calibrated=1
+# The candidate's provenance lists what its fit and calibration read, the work files deleted at
+# exit: named instead, as in the log, by the day's logs they were observed from (a JSON string
+# each; a name with a control character keeps the work file's).
+json_string() {
+  local s=${1//\\/\\\\}
+  printf '"%s"' "${s//\"/\\\"}"
+}
+for i in "${!logs[@]}"; do
+  [[ ${logs[i]} == *[[:cntrl:]]* ]] && continue
+  echo "s|$(pattern "\"$work/mid-$i.bin\"")|$(replacement "$(json_string "${logs[i]} (observed with the corrected model)")")|g"
+  echo "s|$(pattern "\"$work/new-$i.bin\"")|$(replacement "$(json_string "${logs[i]} (observed with the candidate)")")|g"
+done > "$work/provenance.sed" && sed -i -f "$work/provenance.sed" "$candidate"
 
 # 6. Check: events on the check part, candidate and profile in place.
 # Runs mo-detect with a profile on the check part's logs as they are observed with it, --jobs
