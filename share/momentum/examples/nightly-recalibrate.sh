@@ -498,14 +498,22 @@ say "check part: ${check[*]}"
 # mo-observe starts when its reader opens the pipe (a tool reading several, in turn); its
 # messages go to $work/observe-PREFIX-i.err and its exit status to $work/PREFIX-i.status.
 # end_streams waits for them.
-failed_log=""
+failed_log="" fifo_warned=0
 stream_logs() {  # profile prefix index...
   local p=$1 prefix=$2 j pipe
   shift 2
   for j in "$@"; do
     pipe=$work/$prefix-$j.bin
     rm -f "$pipe" "$work/$prefix-$j.status"
-    mkfifo "$pipe" || keep_old "cannot make the pipe $pipe"
+    if ! mkfifo "$pipe" 2> /dev/null; then
+      # A file system without named pipes: the stream goes to a file, observed before its
+      # reader starts, as every stream did before the pipes.
+      ((fifo_warned)) || say "no named pipes in the work folder (TMPDIR): observed streams go to files there"
+      fifo_warned=1
+      mo-observe -q --strict -p "$p" --output-format bin -o "$pipe" "${logs[j]}" 2> "$work/observe-$prefix-$j.err"
+      echo $? > "$work/$prefix-$j.status"
+      continue
+    fi
     {
       mo-observe -q --strict -p "$p" --output-format bin -o - "${logs[j]}" 2> "$work/observe-$prefix-$j.err"
       echo $? > "$work/$prefix-$j.status"
@@ -524,9 +532,11 @@ end_streams() {  # prefix index...
     # still wait to start: a reader that comes and goes lets each start, meet a closed pipe and
     # end (quietly, status 0). (Opened for reading and writing, the pipe does not wait for a
     # writer, which the observer may no longer be.)
-    exec {fd}<> "$work/$prefix-$j.bin" && exec {fd}<&-
-    wait "${stream_pid[$prefix-$j]}"
-    unset "stream_pid[$prefix-$j]"
+    if [[ -n ${stream_pid[$prefix-$j]:-} ]]; then
+      exec {fd}<> "$work/$prefix-$j.bin" && exec {fd}<&-
+      wait "${stream_pid[$prefix-$j]}"
+      unset "stream_pid[$prefix-$j]"
+    fi
     to_log < "$work/observe-$prefix-$j.err"
     if [[ $(cat "$work/$prefix-$j.status" 2> /dev/null) != 0 ]]; then
       status=1
