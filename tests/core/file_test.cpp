@@ -317,6 +317,49 @@ TEST(Output, ANamedPipeIsGrownToHoldAWritersBuffer) {
   ::close(reader);
 }
 
+// A named pipe given as /dev/fd/N is read through that descriptor, not opened again: opened
+// again, it would wait for a writer, here gone after writing (an alarm ends the test if it
+// waits; an anonymous pipe would not wait).
+TEST(Input, APipeNamedByItsDescriptorIsNotOpenedAgain) {
+  Folder dir;
+  const std::string pipe = (dir.path / "stream.csv").string();
+  ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+  const int reader = ::open(pipe.c_str(), O_RDONLY | O_NONBLOCK);  // does not wait for a writer
+  ASSERT_GE(reader, 0);
+  const int writer = ::open(pipe.c_str(), O_WRONLY);
+  ASSERT_GE(writer, 0);
+  ASSERT_EQ(::write(writer, "t,r1\n", 5), 5);
+  ::close(writer);
+  for (const std::string prefix : {"/dev/fd/", "/proc/self/fd/"}) {
+    ::alarm(10);
+    const int fd = momentum::core::open_input(prefix + std::to_string(reader));
+    ::alarm(0);
+    ASSERT_GE(fd, 0);
+    EXPECT_NE(fd, reader);
+    struct stat a {}, b {};
+    ASSERT_EQ(::fstat(fd, &a), 0);
+    ASSERT_EQ(::fstat(reader, &b), 0);
+    EXPECT_EQ(a.st_ino, b.st_ino);
+    if (prefix == "/dev/fd/") {
+      char text[16] = {};
+      EXPECT_EQ(::read(fd, text, sizeof text), 5);
+      EXPECT_STREQ(text, "t,r1\n");
+    }
+    momentum::core::close_input(fd);
+  }
+  ::close(reader);
+  // A regular file so named is opened as before (its own offset).
+  const std::string file = (dir.path / "rows.csv").string();
+  std::ofstream(file) << "t\n0\n";
+  const int held = ::open(file.c_str(), O_RDONLY);
+  ASSERT_GE(held, 0);
+  ASSERT_EQ(::lseek(held, 2, SEEK_SET), 2);
+  const int fd = momentum::core::open_input("/dev/fd/" + std::to_string(held));
+  EXPECT_EQ(::lseek(fd, 0, SEEK_CUR), 0);
+  momentum::core::close_input(fd);
+  ::close(held);
+}
+
 TEST(Output, AFullDiskIsAnErrorNamingTheFile) {
   if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
   OutputFile full("/dev/full");

@@ -167,10 +167,36 @@ RemoveOnSignal::~RemoveOnSignal() {
   if (--g_registered == 0) restore_handlers();
 }
 
+namespace {
+
+// A copy of the descriptor that `path` names as /dev/fd/N or /proc/self/fd/N when it is a pipe
+// or a socket, else -1. Opened again by its name, such a pipe is a new reader that waits for a
+// writer: the one that was there may have written everything and gone meanwhile (a named pipe
+// that mo-detect opens to poll it, then reads through /dev/fd/N), and the open waits for ever.
+int copy_of_open_pipe(const std::string& path) {
+  std::string_view number;
+  for (std::string_view prefix : {"/dev/fd/", "/proc/self/fd/"})
+    if (path.size() > prefix.size() && path.compare(0, prefix.size(), prefix) == 0)
+      number = std::string_view(path).substr(prefix.size());
+  if (number.empty() || number.size() > 9 ||
+      !std::all_of(number.begin(), number.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return -1;
+  const int fd = std::stoi(std::string(number));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !(S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode))) return -1;
+  return ::fcntl(fd, F_DUPFD_CLOEXEC, 0);
+}
+
+}  // namespace
+
 int open_input(const std::string& path, const std::string& display_name) {
   const bool from_stdin = is_standard_input(path);
   const std::string name = !display_name.empty() ? display_name : input_name(path);
-  const int fd = from_stdin ? STDIN_FILENO : ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  int fd = STDIN_FILENO;
+  if (!from_stdin) {
+    fd = copy_of_open_pipe(path);
+    if (fd < 0) fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  }
   if (fd < 0) throw Error(name + ": cannot open: " + std::strerror(errno));
   struct stat st {};
   if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) {

@@ -44,7 +44,8 @@ Thresholds choose_thresholds(const StreamDetectorOptions& options, const model::
 
 // The input and how to wake up on SIGINT/SIGTERM while it is quiet: reads of a pipe wait in
 // poll() on the input and the signal pipe. A named pipe or socket is opened here, so that its
-// descriptor can be polled.
+// descriptor can be polled; the reader reads that descriptor through /dev/fd/N (core::open_input
+// copies it: opened again, the pipe would wait for a writer that may be gone).
 class LiveInput {
  public:
   explicit LiveInput(const std::string& path) : open_path_(path) {
