@@ -571,8 +571,8 @@ fi
 
 # 3.-4. Friction, fitted on the calibration part observed with the corrected model.
 # (A refused or failed fit leaves the candidate as it was: --update replaces it in one rename.)
-mapfile -t mid_calibration < <(observed mid "${even[@]}")
 if ((fit_friction)); then
+  mapfile -t mid_calibration < <(observed mid "${even[@]}")
   stream_logs "$candidate" mid "${even[@]}"
   run mo-lugre-fit -p "$candidate" --update --seed "$seed" "${mid_calibration[@]}"
   fitted=$?
@@ -586,13 +586,9 @@ fi
 
 # 5. Thresholds, on residuals compensated with the candidate's friction (without a friction
 # fit, the corrected model's residuals are already those).
-if ((fit_friction)); then
-  prefix=new
-  stream_logs "$candidate" new "${even[@]}"
-else
-  prefix=mid
-  stream_logs "$candidate" mid "${even[@]}"
-fi
+prefix=mid
+((fit_friction)) && prefix=new
+stream_logs "$candidate" "$prefix" "${even[@]}"
 mapfile -t new_calibration < <(observed "$prefix" "${even[@]}")
 run mo-calibrate -q -p "$candidate" --reject-contact --strict "${calibrate_options[@]}" "${new_calibration[@]}" \
   > "$work/calibration.txt"
