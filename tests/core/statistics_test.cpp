@@ -107,6 +107,49 @@ TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
   EXPECT_EQ(m.update(), 1.5);  // 3 left: {0, 1, 2, 10}
 }
 
+// The lower bound kept between updates is at most the window's exact median after every push
+// while bound_holds(), through a scale that drifts, falls by a factor of 100 (an arm coming to
+// rest), rises again, and values at rest that are 0; and a push that leaves it failing is
+// seen: a window of 1s after an update (bound 0.75) fails once 64 of 128 values are 0.5.
+TEST(RunningMedian, LowerBoundHoldsBetweenUpdates) {
+  constexpr int kN = 128;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_int_distribution<int> few(0, 3);
+  RunningMedian<kN> median, exact;
+  int updates = 0, checked = 0;
+  for (int k = 0; k < 40000; ++k) {
+    double scale = 1.0;
+    if (k % 10000 >= 2000 && k % 10000 < 4000) scale = 1.0 - 0.99 * (k % 10000 - 2000) / 2000.0;
+    if (k % 10000 >= 4000) scale = 0.01 + 3.0 * (k % 10000 - 4000) / 6000.0;
+    double v = std::fabs(scale * normal(rng));
+    if (k >= 30000) v = 1e-4 * few(rng);
+    median.push(v);
+    exact.push(v);
+    // A bound of 0 always holds: computed first as the signal check does through its warm-up.
+    if (k < 16 || !median.bound_holds()) {
+      median.update();
+      ++updates;
+    }
+    ASSERT_TRUE(median.bound_holds());
+    ASSERT_LE(median.lower_bound(), exact.update()) << "push " << k;
+    ++checked;
+  }
+  // 16 in the warm-up, and about log(100) / log(4/3) = 16 as the scale falls by 100: far fewer
+  // recomputations than pushes.
+  EXPECT_LT(updates, 60);
+  EXPECT_EQ(checked, 40000);
+  RunningMedian<kN> ones;
+  for (int k = 0; k < kN; ++k) ones.push(1.0);
+  EXPECT_EQ(ones.update(), 1.0);
+  EXPECT_EQ(ones.lower_bound(), 0.75);
+  for (int k = 0; k < 63; ++k) ones.push(0.5);
+  EXPECT_TRUE(ones.bound_holds());
+  ones.push(0.5);
+  EXPECT_FALSE(ones.bound_holds());
+  EXPECT_EQ(ones.update(), 0.75);  // the mean of 0.5 and 1
+}
+
 // The sorted window gives RunningMedian's median bit for bit after every push: while the window
 // fills (odd and even counts) and once it slides, with repeated values (a stream's time steps
 // take few distinct values) and with arbitrary ones; and the median of a known window.

@@ -73,7 +73,13 @@ int SignalCheck::beyond_limits(const double* q, const double* dq, const double* 
   return -1;
 }
 
-double SignalCheck::tolerance(int j, double interval, double typical_dt) const {
+double SignalCheck::tolerance(int j, double interval, double typical_dt) {
+  core::RunningMedian<kWindow>& scale = joints_[static_cast<std::size_t>(j)].abs_error;
+  if (scale.pushes_since_update() > 0) scale.update();
+  return tolerance_as_computed(j, interval, typical_dt);
+}
+
+double SignalCheck::tolerance_as_computed(int j, double interval, double typical_dt) const {
   if (!ready()) return kInf;
   const Joint& J = joints_[static_cast<std::size_t>(j)];
   // Quantisation alone: the difference of two positions rounded independently is off by an
@@ -90,7 +96,7 @@ double SignalCheck::velocity_tolerance(int j) const {
   if (curvatures_ < static_cast<std::uint64_t>(kWarmUp)) return kInf;
   const Joint& J = joints_[static_cast<std::size_t>(j)];
   // Three velocities rounded independently: their second difference is off by an error of
-  // variance 6 quantum^2 / 12.
+  // variance 6 quantum^2 / 12 (as velocity_jumps() takes it too).
   const double floor = J.dq_quantum * std::sqrt(0.5);
   return options_.sigmas * std::max(kMadToSigma * J.abs_velocity_curvature.value(), floor);
 }
@@ -130,13 +136,16 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
     const int index = static_cast<int>(j);
     Joint& J = joints_[j];
     const double d = trend.departure(J.last_dq_step, dq_a[j], dq_b[j]);
+    // Within the tolerance on the scale's lower bound (see learn()), so within it on the scale.
+    const double floor = J.dq_quantum * std::sqrt(0.5);
+    if (std::fabs(d) <= options_.sigmas * std::max(kMadToSigma * J.abs_velocity_curvature.lower_bound(), floor) *
+                             trend.noise_ratio)
+      continue;
     double tol = velocity_tolerance(index) * trend.noise_ratio;
-    if (std::fabs(d) <= tol || !std::isfinite(tol)) continue;
-    // Beyond the scale as last computed (see learn()): judged on it brought up to date.
-    if (refresh(J.abs_velocity_curvature)) {
-      tol = velocity_tolerance(index) * trend.noise_ratio;
-      if (std::fabs(d) <= tol) continue;
-    }
+    if (!std::isfinite(tol)) continue;
+    // Beyond the scale as last computed: judged on it brought up to date.
+    if (std::fabs(d) > tol && refresh(J.abs_velocity_curvature)) tol = velocity_tolerance(index) * trend.noise_ratio;
+    if (std::fabs(d) <= tol) continue;
     // The velocity left its trend: by a torque the motor shows, or one too small to matter?
     if (!have_mass) {
       mass_matrix(model_, data_, Eigen::Map<const Eigen::VectorXd>(q_b, model_.nq), mass_);
@@ -182,7 +191,7 @@ bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, 
 bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
                            const double* dq_b, double typical_dt, std::string* why) {
   const double dt = t_b - t_a;
-  // As tolerance() stretches the scale for the interval.
+  // As tolerance_as_computed() stretches the scale for the interval.
   const double stretch = typical_dt > 0 ? std::max(1.0, dt / typical_dt) : 1.0;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     Joint& J = joints_[j];
@@ -197,13 +206,13 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     }
     if (!ready()) continue;
     const double e = moved - 0.5 * dt * (dq_a[j] + dq_b[j]);
-    // Within the learnt scale alone (which the tolerance is at least, the quantisation floor
-    // being the other candidate of its max): agreed, without the floor's square root.
-    if (std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.value() * stretch)) continue;
-    // Beyond the scale as last computed (see learn()): judged on it brought up to date.
-    if (refresh(J.abs_error) && std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.value() * stretch))
-      continue;
-    const double tol = tolerance(index, dt, typical_dt);
+    // Within the learnt scale's lower bound (see learn()), so within the tolerance (the
+    // quantisation floor being the other candidate of its max): agreed, without the median
+    // and the floor's square root.
+    if (std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.lower_bound() * stretch)) continue;
+    // Beyond it: judged on the scale brought up to date.
+    refresh(J.abs_error);
+    const double tol = tolerance_as_computed(index, dt, typical_dt);
     if (!(std::fabs(e) <= tol)) {
       if (why) *why = joint_name(index) + "'s position moved " + core::short_number(moved) + ", its velocity says " +
                       core::short_number(0.5 * dt * (dq_a[j] + dq_b[j])) + " (tolerance " +
@@ -222,10 +231,18 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   // Only intervals of about one step continue a trend (as velocity_jumps() asks).
   const bool on_trend = continues && steps_apart(dt, last_dt_);
   if (on_trend) ++curvatures_;
+  // The medians of the windows are what the tolerances scale, and a median of 128 values costs
+  // a few thousand instructions: the tests accept on each window's lower bound, which a push
+  // keeps for two comparisons, so a median is recomputed only through the warm-up, when the
+  // bound fails (the scale fell by a quarter: an arm coming to rest), or when a row lies
+  // beyond the bound (refresh()). A row is never accepted on a scale larger than the window's.
+  const bool warming = intervals_ < static_cast<std::uint64_t>(kWarmUp);
+  const bool trend_warming = curvatures_ <= static_cast<std::uint64_t>(kWarmUp);
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     Joint& J = joints_[j];
     const double moved = q_b[j] - q_a[j];
     J.abs_error.push(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])));
+    if (warming || !J.abs_error.bound_holds()) J.abs_error.update();
     const double velocity_step = dq_b[j] - dq_a[j];
     if (continues) {
       const double q_curvature = std::fabs(moved - J.last_q_step);
@@ -237,6 +254,7 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
     const double torque_step = tau_b[j] - tau_a[j];
     if (on_trend) {
       J.abs_velocity_curvature.push(std::fabs(velocity_step - J.last_dq_step * dt / last_dt_));
+      if (trend_warming || !J.abs_velocity_curvature.bound_holds()) J.abs_velocity_curvature.update();
       J.abs_torque_curvature.push(std::fabs(torque_step - J.last_tau_step * dt / last_dt_));
     }
     J.last_q_step = moved;
@@ -246,20 +264,6 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   last_t_ = t_b;
   last_dt_ = dt;
   ++intervals_;
-  // The medians of the windows move slowly: recomputed every kRefresh intervals (and through
-  // the warm-up), a median of 128 values costs a few hundred instructions a row instead of
-  // thousands. A row beyond a scale so computed is judged on it brought up to date (refresh()),
-  // so a row is never refused on a stale scale; one within it may be accepted on a scale up to
-  // kRefresh intervals old, half the window, where the scale has just fallen (an arm coming to
-  // rest): a tolerance then still that of the motion.
-  if (intervals_ <= kWarmUp || ++since_update_ >= kRefresh) {
-    since_update_ = 0;
-    for (Joint& J : joints_) J.abs_error.update();
-  }
-  if (on_trend && (curvatures_ <= static_cast<std::uint64_t>(kWarmUp) || ++since_trend_update_ >= kRefresh)) {
-    since_trend_update_ = 0;
-    for (Joint& J : joints_) J.abs_velocity_curvature.update();
-  }
 }
 
 }  // namespace momentum::observer

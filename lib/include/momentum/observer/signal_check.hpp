@@ -69,9 +69,8 @@ class SignalCheck {
   static constexpr int kWindow = 128;
   // Intervals needed before the disagreement test applies (the limits apply from the start).
   static constexpr int kWarmUp = 16;
-  // Intervals between recomputations of the running scales (see learn()); and the fewest
-  // pushes since the last for which a row beyond a scale has it recomputed before judgement.
-  static constexpr int kRefresh = 64;
+  // The fewest pushes since a running scale was last computed for which a row beyond its lower
+  // bound has it recomputed before judgement (see learn()).
   static constexpr int kRefreshJudged = 8;
 
   // `model` must outlive the check (its joint limits are read).
@@ -99,8 +98,9 @@ class SignalCheck {
   void learn(double t_a, const double* q_a, const double* dq_a, const double* tau_a, double t_b,
              const double* q_b, const double* dq_b, const double* tau_b);
 
-  // Tolerance of joint j (0-based) over an interval of `interval` s, rad (m): +inf before ready().
-  double tolerance(int j, double interval, double typical_dt) const;
+  // Tolerance of joint j (0-based) over an interval of `interval` s, rad (m), on the window as it
+  // is now (its scale brought up to date): +inf before ready().
+  double tolerance(int j, double interval, double typical_dt);
 
   // Whether row b's velocity leaves the trend of the last interval learnt (which must end at
   // t_a, with b about one step later: within 2.5 times that interval and at least 0.4 times it) by more than its
@@ -139,6 +139,8 @@ class SignalCheck {
     double lower = 0, upper = 0, velocity = 0, effort = 0;  // bounds with limit_factor
     double velocity_limit = 0;                              // the URDF's, times limit_factor
   };
+  // tolerance() on the scale as last computed.
+  double tolerance_as_computed(int j, double interval, double typical_dt) const;
   // Tolerance of the motor torque's departure from its trend one step on, Nm.
   double torque_tolerance(int j) const;
   // Recomputes `scale` when kRefreshJudged values or more came in since it was last: whether it did.
@@ -153,8 +155,6 @@ class SignalCheck {
   double last_t_ = 0;  // end of the last interval learnt: the next one continues it when equal
   double last_dt_ = 0;  // its length, s
   std::uint64_t curvatures_ = 0;  // pairs of consecutive intervals learnt
-  int since_update_ = 0;
-  int since_trend_update_ = 0;
 };
 
 }  // namespace momentum::observer
