@@ -189,7 +189,11 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     if (count <= kReportedPerKind) warn_row(duplicate ? "duplicate row" : "time out of order", where + ": " + message + ": skipped");
   };
 
+  // The row whose values t, q, dq and tau hold, so that the check's row is not unpacked again
+  // for the observer; reset with every row read and when q, dq and tau are swapped away.
+  const double* unpacked = nullptr;
   auto unpack = [&](const double* row) {
+    unpacked = row;
     t = row[t_index_];
     for (int j = 0; j < n; ++j) {
       q[j] = row[q_index_[j]];
@@ -218,7 +222,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   // observer bridges them; not counted as a gap).
   auto process = [&](const double* row, bool duplicate, const std::string* where, bool after_left_out) {
     auto here = [&] { return where ? *where : in_.where(); };
-    unpack(row);
+    if (row != unpacked) unpack(row);
     const double previous_t = observer_.last_time();
     const double median = observer_.median_dt();
     const SampleStatus status = observer_.step(t, q.data(), dq.data(), tau.data(), r.data(),
@@ -278,6 +282,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       good_q.swap(q);
       good_dq.swap(dq);
       good_tau.swap(tau);
+      unpacked = nullptr;
       have_good = true;
       held_r = r;
       if (friction) {
@@ -458,8 +463,11 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
 
   while (const double* row = in_.next()) {
     ++rows;
+    unpacked = nullptr;
     if (options_.progress && (rows & 0xffff) == 0) options_.progress(rows, t);
-    const bool duplicate = have_previous_row &&
+    // An exact duplicate has the same time first (or both NaN): most rows are told by it alone.
+    const double row_t = row[t_index_], previous_t = previous_row[t_index_];
+    const bool duplicate = have_previous_row && (row_t == previous_t || (row_t != row_t && previous_t != previous_t)) &&
                            std::equal(row, row + width_in, previous_row.begin(),
                                       [](double a, double b) { return a == b || (a != a && b != b); });
     std::copy(row, row + width_in, previous_row.begin());

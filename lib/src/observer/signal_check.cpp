@@ -238,6 +238,7 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   // beyond the bound (refresh()). A row is never accepted on a scale larger than the window's.
   const bool warming = intervals_ < static_cast<std::uint64_t>(kWarmUp);
   const bool trend_warming = curvatures_ <= static_cast<std::uint64_t>(kWarmUp);
+  const double stretch = on_trend ? dt / last_dt_ : 0;  // the last steps extended over dt
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     Joint& J = joints_[j];
     const double moved = q_b[j] - q_a[j];
@@ -253,9 +254,9 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
     // The velocity's departure from the trend, as velocity_jumps() measures it.
     const double torque_step = tau_b[j] - tau_a[j];
     if (on_trend) {
-      J.abs_velocity_curvature.push(std::fabs(velocity_step - J.last_dq_step * dt / last_dt_));
+      J.abs_velocity_curvature.push(std::fabs(velocity_step - J.last_dq_step * stretch));
       if (trend_warming || !J.abs_velocity_curvature.bound_holds()) J.abs_velocity_curvature.update();
-      J.abs_torque_curvature.push(std::fabs(torque_step - J.last_tau_step * dt / last_dt_));
+      J.abs_torque_curvature.push(std::fabs(torque_step - J.last_tau_step * stretch));
     }
     J.last_q_step = moved;
     J.last_dq_step = velocity_step;
