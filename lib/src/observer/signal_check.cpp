@@ -188,6 +188,37 @@ bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, 
   return true;
 }
 
+bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
+                                 const double* dq_b, const double* tau_b, double typical_dt) const {
+  const double dt = t_b - t_a;
+  const double stretch = typical_dt > 0 ? std::max(1.0, dt / typical_dt) : 1.0;
+  const double position_scale = options_.sigmas * kMadToSigma * stretch;
+  // The velocity's trend, where velocity_jumps() would judge it: its scales once warmed up.
+  const bool trend = t_a == last_t_ && steps_apart(dt, last_dt_) && curvatures_ >= static_cast<std::uint64_t>(kWarmUp);
+  const Extension extension(trend ? last_dt_ : dt, t_a, t_b);
+  const double trend_scale = options_.sigmas * extension.noise_ratio;
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    const Joint& J = joints_[j];
+    // As beyond_limits().
+    if (!(q_b[j] >= J.lower && q_b[j] <= J.upper && std::fabs(dq_b[j]) <= J.velocity && std::fabs(tau_b[j]) <= J.effort))
+      return false;
+    // As disagree(), on the scale's lower bound.
+    const double moved = q_b[j] - q_a[j];
+    if (!(std::fabs(moved) <= J.velocity_limit * dt + J.q_quantum)) return false;
+    if (ready() && !(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])) <=
+                     position_scale * J.abs_error.lower_bound()))
+      return false;
+    // As velocity_jumps(), on the scale's lower bound.
+    if (trend) {
+      const double d = extension.departure(J.last_dq_step, dq_a[j], dq_b[j]);
+      if (!(std::fabs(d) <= trend_scale * std::max(kMadToSigma * J.abs_velocity_curvature.lower_bound(),
+                                                    J.dq_quantum * std::sqrt(0.5))))
+        return false;
+    }
+  }
+  return true;
+}
+
 bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
                            const double* dq_b, double typical_dt, std::string* why) {
   const double dt = t_b - t_a;

@@ -129,15 +129,13 @@ class RunningMedian {
 
   void push(double value) {
     if (count_ == N) {
-      const double old = window_[next_];
-      if (old != old) --nans_;
-      below_ -= old < bound_;
+      below_ -= window_[next_] < bound_;
+    } else {
+      ++count_;
     }
     window_[next_] = value;
-    if (value != value) ++nans_;
     below_ += value < bound_;
     if (++next_ == N) next_ = 0;
-    if (count_ < N) ++count_;
     ++pushed_;
   }
   // The median of the window (for an even count, the mean of the two middle values); 0 before
@@ -148,7 +146,11 @@ class RunningMedian {
     const int high = count_ / 2;                         // rank of the upper middle value
     const int low = count_ % 2 == 0 ? high - 1 : high;   // and of the lower one
     double lower = 0, upper = 0;  // the values of ranks low and high
-    if (nans_ == 0) {
+    // NaNs are looked for here, not counted as they come: a caller that pushes on every row and
+    // updates rarely (the signal check) pays for them rarely.
+    bool nan = false;
+    for (int k = 0; k < count_; ++k) nan = nan || window_[k] != window_[k];
+    if (!nan) {
       select_middle(low, high, &lower, &upper);
     } else {
       double sorted[N];
@@ -197,7 +199,6 @@ class RunningMedian {
   int next_ = 0;
   double median_ = 0;
   int pushed_ = 0;  // pushes since the last update()
-  int nans_ = 0;    // NaN values in the window
   double bound_ = 0;
   int below_ = 0;   // values in the window below bound_
 };

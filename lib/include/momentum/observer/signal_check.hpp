@@ -84,6 +84,14 @@ class SignalCheck {
   // q, dq, tau: nq values each (rad, rad/s, Nm; m, m/s, N for a prismatic joint).
   int beyond_limits(const double* q, const double* dq, const double* tau, std::string* why) const;
 
+  // Whether row b (t_b > t_a) plainly passes every test against row a, the last good row, in
+  // one pass over the joints and without recomputing a scale: within its limits
+  // (beyond_limits() < 0), agreeing with row a (disagree() false) and its velocity on its trend
+  // (velocity_jumps() false), each on the lower bounds of the running scales. True only where
+  // those three say so; false says nothing (a row near a tolerance, or a row to judge in full).
+  bool plainly_passes(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
+                      const double* dq_b, const double* tau_b, double typical_dt) const;
+
   // Whether the rows a and b (t_b > t_a) disagree: some joint's |e| beyond its tolerance for
   // the interval (`typical_dt`: the stream's median step, s, > 0), or a position change faster
   // than the velocity limit allows. Before ready(), only the velocity limit is tested. When
