@@ -1,7 +1,7 @@
 // The observer's hot path piece by piece: filter coefficients, the disturbance filter (double and
-// the Jet the fitter uses), LuGre steps, the model-free residual observer, and the whole
-// MomentumObserver on the UR5 and Panda reference motions (items = rows). End-to-end throughput
-// of mo-observe on a 1,000,000-row stream: scripts/bench-observe.sh.
+// the Jet the fitter uses), LuGre steps, the model-free residual observer, the whole
+// MomentumObserver and the signal check on the UR5 and Panda reference motions (items = rows).
+// End-to-end throughput of mo-observe on a 1,000,000-row stream: scripts/bench-observe.sh.
 #include <benchmark/benchmark.h>
 #include <ceres/jet.h>
 
@@ -14,6 +14,7 @@
 #include "momentum/model/profile.hpp"
 #include "momentum/observer/filter.hpp"
 #include "momentum/observer/observer.hpp"
+#include "momentum/observer/signal_check.hpp"
 #include "momentum/stream/reader.hpp"
 
 namespace mo = momentum::observer;
@@ -133,6 +134,38 @@ void BM_MomentumObserver(benchmark::State& state, const std::string& robot, cons
 }
 BENCHMARK_CAPTURE(BM_MomentumObserver, ur5, "ur5", "ur5.json", 6)->Arg(0)->Arg(1);
 BENCHMARK_CAPTURE(BM_MomentumObserver, panda, "panda", "panda.json", 7)->Arg(0)->Arg(1);
+
+// The signal check's work on a clean row, as mo-observe does it: the one-pass test against the
+// last good row, then learning from the interval (the full tests only where the one pass does
+// not decide, which on the reference motion is about one row in 500).
+void BM_SignalCheck(benchmark::State& state, const std::string& robot, const std::string& profile, int n) {
+  namespace mm = momentum::model;
+  const mm::Model model = mm::build_model(mm::load_profile(std::string(MOMENTUM_TEST_DATA) + "/" + profile));
+  const Motion m = load_motion(robot, n);
+  mo::SignalCheck check(model, mo::SignalCheckOptions{});
+  std::size_t a = 0, b = 1;
+  double offset = 0, t_a = m.t[0];
+  std::int64_t full = 0;
+  for (auto _ : state) {
+    const double t_b = m.t[b] + offset;
+    if (!check.plainly_passes(t_a, m.q[a].data(), m.dq[a].data(), t_b, m.q[b].data(), m.dq[b].data(),
+                              m.tau[b].data(), 0.001)) {
+      ++full;
+      benchmark::DoNotOptimize(check.disagree(t_a, m.q[a].data(), m.dq[a].data(), t_b, m.q[b].data(),
+                                              m.dq[b].data(), 0.001, nullptr));
+    }
+    check.learn(t_a, m.q[a].data(), m.dq[a].data(), m.tau[a].data(), t_b, m.q[b].data(), m.dq[b].data(),
+                m.tau[b].data());
+    a = b;
+    t_a = t_b;
+    if (++b == m.t.size()) b = 0, offset += m.t.back() + 0.001;
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["full tests"] = benchmark::Counter(static_cast<double>(full), benchmark::Counter::kAvgIterations);
+  state.SetLabel(std::to_string(n) + " joints");
+}
+BENCHMARK_CAPTURE(BM_SignalCheck, ur5, "ur5", "ur5.json", 6);
+BENCHMARK_CAPTURE(BM_SignalCheck, panda, "panda", "panda.json", 7);
 
 }  // namespace
 

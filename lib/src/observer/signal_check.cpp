@@ -13,6 +13,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // 1.4826 median(|x|) is the standard deviation of zero-mean normal noise.
 constexpr double kMadToSigma = 1.4826;
+constexpr double kInvSqrt6 = 0.40824829046386301637;
 
 std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
 
@@ -205,8 +206,9 @@ bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq
     // As disagree(), on the scale's lower bound.
     const double moved = q_b[j] - q_a[j];
     if (!(std::fabs(moved) <= J.velocity_limit * dt + J.q_quantum)) return false;
+    // The quantisation floor without its velocity term (at rest, where the scale is 0).
     if (ready() && !(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])) <=
-                     position_scale * J.abs_error.lower_bound()))
+                     std::max(position_scale * J.abs_error.lower_bound(), options_.sigmas * J.q_quantum * kInvSqrt6)))
       return false;
     // As velocity_jumps(), on the scale's lower bound.
     if (trend) {
