@@ -17,6 +17,10 @@ constexpr double kInvSqrt6 = 0.40824829046386301637;
 
 std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
 
+// Three velocities rounded independently to steps of `quantum`: their second difference is off
+// by an error of variance 6 quantum^2 / 12.
+double velocity_quantisation_noise(double quantum) { return quantum * std::sqrt(0.5); }
+
 }  // namespace
 
 bool SignalCheckOptions::IsValid(std::string* why) const {
@@ -96,10 +100,13 @@ double SignalCheck::tolerance_as_computed(int j, double interval, double typical
 double SignalCheck::velocity_tolerance(int j) const {
   if (curvatures_ < static_cast<std::uint64_t>(kWarmUp)) return kInf;
   const Joint& J = joints_[static_cast<std::size_t>(j)];
-  // Three velocities rounded independently: their second difference is off by an error of
-  // variance 6 quantum^2 / 12 (as velocity_jumps() takes it too).
-  const double floor = J.dq_quantum * std::sqrt(0.5);
-  return options_.sigmas * std::max(kMadToSigma * J.abs_velocity_curvature.value(), floor);
+  return options_.sigmas *
+         std::max(kMadToSigma * J.abs_velocity_curvature.value(), velocity_quantisation_noise(J.dq_quantum));
+}
+
+double SignalCheck::velocity_tolerance_on_bound(const Joint& J) const {
+  return options_.sigmas *
+         std::max(kMadToSigma * J.abs_velocity_curvature.lower_bound(), velocity_quantisation_noise(J.dq_quantum));
 }
 
 namespace {
@@ -138,10 +145,7 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
     Joint& J = joints_[j];
     const double d = trend.departure(J.last_dq_step, dq_a[j], dq_b[j]);
     // Within the tolerance on the scale's lower bound (see learn()), so within it on the scale.
-    const double floor = J.dq_quantum * std::sqrt(0.5);
-    if (std::fabs(d) <= options_.sigmas * std::max(kMadToSigma * J.abs_velocity_curvature.lower_bound(), floor) *
-                             trend.noise_ratio)
-      continue;
+    if (std::fabs(d) <= velocity_tolerance_on_bound(J) * trend.noise_ratio) continue;
     double tol = velocity_tolerance(index) * trend.noise_ratio;
     if (!std::isfinite(tol)) continue;
     // Beyond the scale as last computed: judged on it brought up to date.
@@ -197,7 +201,6 @@ bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq
   // The velocity's trend, where velocity_jumps() would judge it: its scales once warmed up.
   const bool trend = t_a == last_t_ && steps_apart(dt, last_dt_) && curvatures_ >= static_cast<std::uint64_t>(kWarmUp);
   const Extension extension(trend ? last_dt_ : dt, t_a, t_b);
-  const double trend_scale = options_.sigmas * extension.noise_ratio;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const Joint& J = joints_[j];
     // As beyond_limits().
@@ -213,9 +216,7 @@ bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq
     // As velocity_jumps(), on the scale's lower bound.
     if (trend) {
       const double d = extension.departure(J.last_dq_step, dq_a[j], dq_b[j]);
-      if (!(std::fabs(d) <= trend_scale * std::max(kMadToSigma * J.abs_velocity_curvature.lower_bound(),
-                                                    J.dq_quantum * std::sqrt(0.5))))
-        return false;
+      if (!(std::fabs(d) <= velocity_tolerance_on_bound(J) * extension.noise_ratio)) return false;
     }
   }
   return true;
@@ -268,7 +269,8 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   // a few thousand instructions: the tests accept on each window's lower bound, which a push
   // keeps for two comparisons, so a median is recomputed only through the warm-up, when the
   // bound fails (the scale fell by a quarter: an arm coming to rest), or when a row lies
-  // beyond the bound (refresh()). A row is never accepted on a scale larger than the window's.
+  // beyond the bound (refresh()). A row is accepted on a scale larger than the window's only
+  // when that scale was computed fewer than kRefreshJudged intervals before it.
   const bool warming = intervals_ < static_cast<std::uint64_t>(kWarmUp);
   const bool trend_warming = curvatures_ <= static_cast<std::uint64_t>(kWarmUp);
   const double stretch = on_trend ? dt / last_dt_ : 0;  // the last steps extended over dt

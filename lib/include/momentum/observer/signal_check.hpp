@@ -149,6 +149,8 @@ class SignalCheck {
   };
   // tolerance() on the scale as last computed.
   double tolerance_as_computed(int j, double interval, double typical_dt) const;
+  // velocity_tolerance() on the lower bound of the velocity's scale (rad/s).
+  double velocity_tolerance_on_bound(const Joint& J) const;
   // Tolerance of the motor torque's departure from its trend one step on, Nm.
   double torque_tolerance(int j) const;
   // Recomputes `scale` when kRefreshJudged values or more came in since it was last: whether it did.
