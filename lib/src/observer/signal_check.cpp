@@ -104,7 +104,7 @@ double SignalCheck::velocity_tolerance(int j) const {
          std::max(kMadToSigma * J.abs_velocity_curvature.value(), velocity_quantisation_noise(J.dq_quantum));
 }
 
-double SignalCheck::velocity_tolerance_on_bound(const Joint& J) const {
+inline double SignalCheck::velocity_tolerance_on_bound(const Joint& J) const {
   return options_.sigmas *
          std::max(kMadToSigma * J.abs_velocity_curvature.lower_bound(), velocity_quantisation_noise(J.dq_quantum));
 }
