@@ -117,7 +117,7 @@ TEST(RunningMedian, LowerBoundHoldsBetweenUpdates) {
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_int_distribution<int> few(0, 3);
   RunningMedian<kN> median, exact;
-  int updates = 0, checked = 0;
+  int updates = 0;
   for (int k = 0; k < 40000; ++k) {
     double scale = 1.0;
     if (k % 10000 >= 2000 && k % 10000 < 4000) scale = 1.0 - 0.99 * (k % 10000 - 2000) / 2000.0;
@@ -133,12 +133,10 @@ TEST(RunningMedian, LowerBoundHoldsBetweenUpdates) {
     }
     ASSERT_TRUE(median.bound_holds());
     ASSERT_LE(median.lower_bound(), exact.update()) << "push " << k;
-    ++checked;
   }
   // 16 in the warm-up, and about log(100) / log(4/3) = 16 as the scale falls by 100: far fewer
   // recomputations than pushes.
   EXPECT_LT(updates, 60);
-  EXPECT_EQ(checked, 40000);
   RunningMedian<kN> ones;
   for (int k = 0; k < kN; ++k) ones.push(1.0);
   EXPECT_EQ(ones.update(), 1.0);
