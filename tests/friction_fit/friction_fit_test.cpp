@@ -145,26 +145,27 @@ TEST(FrictionFit, NoisyWithinConfidenceAt125Hz) {
   }
 }
 
-// At 125 Hz with noise, the bristle damping is not identifiable and the report says why; the
-// stiffness, on this motion with white noise on r, is determined to about 15%, and its
-// uncertainty holds the truth. (The autocorrelation factor the standard errors had before the
-// sandwich covariance inflated its uncertainty past the flag: over 16 noise seeds its z had an
-// RMS of 1 with the sandwich.)
-TEST(FrictionFit, FlagsBristleDampingAt125HzWithReason) {
+// At 125 Hz with noise the bristle parameters rest on the few samples after each reversal.
+// The stiffness is flagged, and the report says why. The damping's uncertainty is mostly its
+// sub-sample shift (refitted with the motion resolved within the intervals, it moves by more
+// than its standard error), large, and it holds the truth. (Before the sandwich covariance, an
+// autocorrelation factor inflated the standard errors past the flag; before the sub-sample
+// shift was a refit, a first-order estimate of it flagged the damping and not the stiffness.)
+TEST(FrictionFit, BristleParametersAt125HzAreFlaggedOrUncertain) {
   SyntheticOptions so;
   so.r_noise = 0.2;
   so.seed = 100;
   const auto data = make_synthetic(kTable1[0], kFirstOrder, so);
   const auto r = friction_fit::fit_joint(data.series, kFirstOrder, quick_options(), 2);
   SCOPED_TRACE(describe(r.model));
-  const auto& s1 = r.model.estimates[1];
-  EXPECT_FALSE(s1.identifiable);
-  EXPECT_NE(s1.note.find("125 Hz"), std::string::npos) << s1.note;
-  EXPECT_NE(s1.note.find("reversal"), std::string::npos) << s1.note;
   const auto& s0 = r.model.estimates[0];
-  if (s0.identifiable) {
-    EXPECT_LT(std::abs(s0.value - kTable1[0].sigma0), 3 * s0.uncertainty);
-  }
+  EXPECT_FALSE(s0.identifiable);
+  EXPECT_NE(s0.note.find("125 Hz"), std::string::npos) << s0.note;
+  EXPECT_NE(s0.note.find("reversal"), std::string::npos) << s0.note;
+  const auto& s1 = r.model.estimates[1];
+  EXPECT_GT(std::abs(s1.discretization_shift), s1.standard_error);
+  EXPECT_GT(s1.uncertainty, 0.25 * s1.value);
+  EXPECT_LT(std::abs(s1.value - kTable1[0].sigma1), 2 * s1.uncertainty);
 }
 
 // The second-order observer (high-pass K2) changes r completely; the fit follows it.

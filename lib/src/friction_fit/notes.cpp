@@ -59,6 +59,15 @@ std::string explain(const Problem& problem, const ModelFit& fit, int i) {
 
 }  // namespace
 
+double identifiability_reference(const friction::Parameters<double>& p, int i, const FitOptions& options) {
+  const auto u = static_cast<std::size_t>(i);
+  const double interval = options.bounds.upper[u] - options.bounds.lower[u];
+  if (i >= 6) return std::min(i == 6 ? p.tau_c : p.tau_s, interval);
+  double all[kParameterCount];
+  p.to_array(all);
+  return std::min(std::abs(all[u]), interval);
+}
+
 void annotate_estimates(const Problem& problem, const FitOptions& options, const ParameterUncertainty& uncertainty,
                         ModelFit& fit) {
   const std::size_t nfree = problem.free.size();
@@ -85,9 +94,7 @@ void annotate_estimates(const Problem& problem, const FitOptions& options, const
     const double near = 1e-6 * (hi - lo);
     if (e.value <= lo + near) e.at_bound = -1;
     if (e.value >= hi - near) e.at_bound = +1;
-    // An asymmetry is often truly 0: judge it against its level (tau_c, tau_s), not itself.
-    const double reference = i >= 6 ? std::min(i == 6 ? fit.parameters.tau_c : fit.parameters.tau_s, hi - lo)
-                                    : std::min(std::abs(e.value), hi - lo);
+    const double reference = identifiability_reference(fit.parameters, i, options);
     std::string note;
     if (!uncertainty.undetermined[j].empty()) {
       e.identifiable = false;

@@ -16,17 +16,9 @@ namespace momentum::friction_fit {
 
 using Params = friction::Parameters<double>;
 
-namespace {
-
-// Levenberg-Marquardt on all the data from a point the polish on the search subset found (so
-// close that a few steps do): each step costs one dual-number pass and one plain pass of the
-// model. Bounds as the polish treats them (a parameter on a bound whose gradient points out
-// is held). On return x is the best point found, e and jacobian are at x (when the last step
-// was too small to matter: at the point before it). Returns the number of passes with
-// derivatives; 0 when the first one failed.
-int refine_on_all(const Problem& problem, std::vector<double>& x, const std::vector<double>& lower,
-                  const std::vector<double>& upper, Eigen::VectorXd& e, Eigen::MatrixXd& jacobian,
-                  std::uint64_t* plain_passes) {
+int refine_levenberg_marquardt(const Problem& problem, std::vector<double>& x, const std::vector<double>& lower,
+                               const std::vector<double>& upper, Eigen::VectorXd& e, Eigen::MatrixXd& jacobian,
+                               std::uint64_t* plain_passes, int max_iterations) {
   const auto n = static_cast<Eigen::Index>(x.size());
   auto physical_cost = [&](const std::vector<double>& v) {
     std::vector<double> p(v.size());
@@ -36,7 +28,7 @@ int refine_on_all(const Problem& problem, std::vector<double>& x, const std::vec
   };
   int passes = 0;
   double lambda = 1e-6;
-  for (int iteration = 0; iteration < 20; ++iteration) {
+  for (int iteration = 0; iteration < max_iterations; ++iteration) {
     if (!jacobian_at(problem, x, problem.scale, e, jacobian)) return passes;
     ++passes;
     const double cost = 0.5 * e.squaredNorm();
@@ -92,6 +84,8 @@ int refine_on_all(const Problem& problem, std::vector<double>& x, const std::vec
   jacobian_at(problem, x, problem.scale, e, jacobian);
   return passes + 1;
 }
+
+namespace {
 
 // A start for the polish from `best` (physical units, free parameters) with the Stribeck
 // effect where the data can see it, or nullopt when the model has no free w_s and tau_s. A w_s
@@ -256,7 +250,7 @@ Eigen::MatrixXd polish_fit(const Problem& problem, const Problem& search, const 
     std::uint64_t plain = 0;
     const double before = problem.cost(fit.parameters);
     std::vector<double> v = x;
-    const int passes = refine_on_all(problem, v, lower, upper, final_residuals, jacobian, &plain);
+    const int passes = refine_levenberg_marquardt(problem, v, lower, upper, final_residuals, jacobian, &plain);
     have_jacobian = passes > 0;
     const Params candidate = physical(v);
     const double after = problem.cost(candidate);

@@ -126,10 +126,12 @@ struct ParameterEstimate {
   // (ModelFit::fit_subset: every sample on short data); NaN when not free or when the
   // covariance could not be computed.
   double standard_error = std::numeric_limits<double>::quiet_NaN();
-  // How far the estimate moves (same unit, first order) when the model resolves the motion
-  // within each sample interval (4 sub-steps, velocity interpolated) instead of once per
-  // sample: the part of the parameter that rests on dynamics faster than the sample rate
-  // (LuGre's bristles at a coarse rate). NaN when not free or not computed.
+  // How far the estimate moves (same unit) when it is fitted again with a model that resolves
+  // the motion within the sample intervals where it is slow or reverses (16 steps, velocity
+  // interpolated: Problem::resolve_slow) instead of once per sample: the part of the parameter
+  // that rests on dynamics faster than the sample rate (LuGre's bristles, the Stribeck dip at a
+  // coarse rate). NaN when not free, when the standard error alone leaves the parameter
+  // undetermined (it is held in that refit), or when not computed.
   double discretization_shift = std::numeric_limits<double>::quiet_NaN();
   // How far the estimate moves (first order) when the measured velocity that drives the model
   // gets a second dose of its own white noise (the mean of 4 draws): the bias the velocity noise

@@ -9,6 +9,11 @@
 
 namespace momentum::friction_fit {
 
+// What parameter i's uncertainty is judged against for identifiability, in its unit: the
+// smaller of its magnitude (an asymmetry's: its level, tau_c or tau_s, since it is often truly
+// 0) and its bound interval in options.bounds.
+double identifiability_reference(const friction::Parameters<double>& p, int i, const FitOptions& options);
+
 // Fills fit.estimates from fit.parameters, `uncertainty` and options.bounds: values, which
 // parameters are used and free, standard errors, shifts, the quoted uncertainty, bounds reached
 // and the identifiability flags and notes (FitOptions::identifiability_threshold). Needs

@@ -1,7 +1,7 @@
 // The uncertainty of a model's friction fit: standard errors and correlations from a
 // Newey-West sandwich over the observer's settling time or longer (the noise in r went through
-// the observer's filter), the Jacobian's rank and condition, and the first-order parameter
-// shifts from sub-sample dynamics and from the velocity noise.
+// the observer's filter), the Jacobian's rank and condition, the parameter shift of a refit
+// that resolves sub-sample dynamics, and the first-order shift from the velocity noise.
 #pragma once
 
 #include <cstddef>
