@@ -333,7 +333,7 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
   // fit's box by a decade (not below 0 unless the box is): the bristle parameters often end on
   // a bound, and held there they would show no move at all.
   if (jacobian.rows() > 0 && jacobian.allFinite()) {
-    constexpr int kStepsPerSlowInterval = 16, kIterations = 20;
+    constexpr int kStepsPerSlowInterval = 16, kIterations = 10;
     Problem fine = problem;
     fine.resolve_slow = kStepsPerSlowInterval;
     double all[kParameterCount];
