@@ -14,6 +14,10 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // 1.4826 median(|x|) is the standard deviation of zero-mean normal noise.
 constexpr double kMadToSigma = 1.4826;
 constexpr double kInvSqrt6 = 0.40824829046386301637;
+// A second difference of three values each read to within half an ulp is off by at most two
+// ulps of the largest; eight ulps of the sum of two of them leave a margin.
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+constexpr double kRoundingUlps = 8;
 
 std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
 
@@ -281,10 +285,16 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
     if (warming || !J.abs_error.bound_holds()) J.abs_error.update();
     const double velocity_step = dq_b[j] - dq_a[j];
     if (continues) {
+      // A second difference within the rounding of the values it comes from is 0: a signal
+      // logged in decimal steps is read into binary fractions, and its exact second
+      // differences come out as residues of a few ulps (4e-19 for velocities in steps of
+      // 1e-4), which would set the quantisation floor to nothing.
       const double q_curvature = std::fabs(moved - J.last_q_step);
       const double dq_curvature = std::fabs(velocity_step - J.last_dq_step);
-      if (q_curvature > 0 && (J.q_quantum == 0 || q_curvature < J.q_quantum)) J.q_quantum = q_curvature;
-      if (dq_curvature > 0 && (J.dq_quantum == 0 || dq_curvature < J.dq_quantum)) J.dq_quantum = dq_curvature;
+      const double q_rounding = kRoundingUlps * kEpsilon * (std::fabs(q_a[j]) + std::fabs(q_b[j]));
+      const double dq_rounding = kRoundingUlps * kEpsilon * (std::fabs(dq_a[j]) + std::fabs(dq_b[j]));
+      if (q_curvature > q_rounding && (J.q_quantum == 0 || q_curvature < J.q_quantum)) J.q_quantum = q_curvature;
+      if (dq_curvature > dq_rounding && (J.dq_quantum == 0 || dq_curvature < J.dq_quantum)) J.dq_quantum = dq_curvature;
     }
     // The velocity's departure from the trend, as velocity_jumps() measures it.
     const double torque_step = tau_b[j] - tau_a[j];
