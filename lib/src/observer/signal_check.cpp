@@ -289,12 +289,15 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
       // logged in decimal steps is read into binary fractions, and its exact second
       // differences come out as residues of a few ulps (4e-19 for velocities in steps of
       // 1e-4), which would set the quantisation floor to nothing.
+      // (Tested last: a second difference below the step found so far is rare.)
       const double q_curvature = std::fabs(moved - J.last_q_step);
       const double dq_curvature = std::fabs(velocity_step - J.last_dq_step);
-      const double q_rounding = kRoundingUlps * kEpsilon * (std::fabs(q_a[j]) + std::fabs(q_b[j]));
-      const double dq_rounding = kRoundingUlps * kEpsilon * (std::fabs(dq_a[j]) + std::fabs(dq_b[j]));
-      if (q_curvature > q_rounding && (J.q_quantum == 0 || q_curvature < J.q_quantum)) J.q_quantum = q_curvature;
-      if (dq_curvature > dq_rounding && (J.dq_quantum == 0 || dq_curvature < J.dq_quantum)) J.dq_quantum = dq_curvature;
+      if (q_curvature > 0 && (J.q_quantum == 0 || q_curvature < J.q_quantum) &&
+          q_curvature > kRoundingUlps * kEpsilon * (std::fabs(q_a[j]) + std::fabs(q_b[j])))
+        J.q_quantum = q_curvature;
+      if (dq_curvature > 0 && (J.dq_quantum == 0 || dq_curvature < J.dq_quantum) &&
+          dq_curvature > kRoundingUlps * kEpsilon * (std::fabs(dq_a[j]) + std::fabs(dq_b[j])))
+        J.dq_quantum = dq_curvature;
     }
     // The velocity's departure from the trend, as velocity_jumps() measures it.
     const double torque_step = tau_b[j] - tau_a[j];
