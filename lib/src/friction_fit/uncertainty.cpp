@@ -160,7 +160,7 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
   //    intervals where it is slow or reverses (Problem::resolve_slow); computed at the end, once
   //    the standard errors are known. A first-order estimate of that move (the change of the
   //    model, absorbed through the Jacobian) gave a third of it on the simulated paper arm at
-  //    125 Hz (tau_s of joint 2: 0.017 against 0.061) and the wrong sign on joint 1: the
+  //    125 Hz (tau_s of joint 2 at 1 h: 0.016 against 0.059) and the wrong sign on joint 1: the
   //    bristle parameters the move exchanges sit on their bounds, far from where the model is
   //    linear in them;
   //  - velocity noise (errors in the variable that drives the model): the change dx that absorbs
