@@ -9,6 +9,7 @@
 
 #include "momentum/core/random.hpp"
 #include "momentum/friction_fit/friction_fit.hpp"
+#include "momentum/friction_fit/problem.hpp"
 #include "synthetic.hpp"
 
 namespace friction_fit = momentum::friction_fit;
@@ -166,6 +167,54 @@ TEST(FrictionFit, BristleParametersAt125HzAreFlaggedOrUncertain) {
   EXPECT_GT(std::abs(s1.discretization_shift), s1.standard_error);
   EXPECT_GT(s1.uncertainty, 0.25 * s1.value);
   EXPECT_LT(std::abs(s1.value - kTable1[0].sigma1), 2 * s1.uncertainty);
+}
+
+// Problem::resolve_slow, which the sub-sample shift refits with: on an interval slower than
+// 4 w_s the observer's filter sees the interval's mean friction, here of the static Stribeck
+// curve under a velocity rising linearly, whose mean has a closed form (erf); one step per
+// sample (a ramp between the end points' friction) is off by the curve's curvature.
+TEST(FrictionFitProblem, ResolvedIntervalFeedsTheFilterItsMeanFriction) {
+  const mf::Parameters<double> p = kTable1[0];
+  friction_fit::JointSeries series;
+  series.joint = 1;
+  const double dt = 0.008, acceleration = 1.0;  // 0.008 rad/s a sample, up to 0.33 < 4 w_s
+  for (int k = 0; k <= 40; ++k) {
+    series.t.push_back(k * dt);
+    series.dq.push_back(0.001 + acceleration * dt * k);
+    series.r.push_back(0.0);
+    series.restart.push_back(k == 0 ? 2 : 0);
+    series.scored.push_back(1);
+  }
+  friction_fit::FitOptions options;
+  options.kind = mf::Kind::stribeck;
+  friction_fit::Problem one_step(series, kFirstOrder, mf::Kind::stribeck, options);
+  friction_fit::Problem resolved = one_step;
+  resolved.resolve_slow = 16;
+  auto outputs = [&](const friction_fit::Problem& problem) {
+    std::vector<double> y;
+    problem.simulate(p, [&](std::size_t, double r, double) { y.push_back(r); });
+    return y;
+  };
+  const std::vector<double> y_one = outputs(one_step), y_resolved = outputs(resolved);
+  // The reference: the filter fed each interval's exact mean friction as a constant.
+  auto mean_friction = [&](double v0, double v1) {
+    const double dip = (p.tau_s - p.tau_c) * p.w_s * std::sqrt(M_PI) / 2 *
+                       (std::erf(v1 / p.w_s) - std::erf(v0 / p.w_s)) / (v1 - v0);
+    return p.tau_c + dip + p.sigma2 * 0.5 * (v0 + v1);
+  };
+  const auto c = momentum::observer::discretize(kFirstOrder, dt);
+  momentum::observer::FilterState<double> filter;
+  double worst_resolved = 0, worst_one_step = 0;
+  for (std::size_t k = 1; k < series.t.size(); ++k) {
+    const double m = mean_friction(series.dq[k - 1], series.dq[k]);
+    filter.advance(c, m, m);
+    worst_resolved = std::max(worst_resolved, std::abs(y_resolved[k] - filter.output(c)));
+    worst_one_step = std::max(worst_one_step, std::abs(y_one[k] - filter.output(c)));
+  }
+  std::printf("largest |r - r_exact|: %.3g Nm resolved, %.3g Nm one step per sample\n", worst_resolved,
+              worst_one_step);
+  EXPECT_LT(worst_resolved, 1e-4);
+  EXPECT_GT(worst_one_step, 10 * worst_resolved);
 }
 
 // The second-order observer (high-pass K2) changes r completely; the fit follows it.
