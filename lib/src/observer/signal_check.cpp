@@ -21,6 +21,17 @@ constexpr double kRoundingUlps = 8;
 
 std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
 
+// Takes |second difference| `curvature` of a signal whose last two values are a and b as its
+// quantisation step when it is the smallest seen (0: none yet). One within the rounding of the
+// values is 0: a signal logged in decimal steps is read into binary fractions, and its exact
+// second differences come out as residues of a few ulps (4e-19 for velocities in steps of
+// 1e-4), which would set the quantisation floor to nothing. (The rounding is tested last: a
+// second difference below the step found so far is rare.)
+inline void lower_quantum(double& quantum, double curvature, double a, double b) {
+  if ((quantum == 0 || curvature < quantum) && curvature > kRoundingUlps * kEpsilon * (std::fabs(a) + std::fabs(b)))
+    quantum = curvature;
+}
+
 // Three velocities rounded independently to steps of `quantum`: their second difference is off
 // by an error of variance 6 quantum^2 / 12.
 double velocity_quantisation_noise(double quantum) { return quantum * std::sqrt(0.5); }
@@ -285,19 +296,8 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
     if (warming || !J.abs_error.bound_holds()) J.abs_error.update();
     const double velocity_step = dq_b[j] - dq_a[j];
     if (continues) {
-      // A second difference within the rounding of the values it comes from is 0: a signal
-      // logged in decimal steps is read into binary fractions, and its exact second
-      // differences come out as residues of a few ulps (4e-19 for velocities in steps of
-      // 1e-4), which would set the quantisation floor to nothing.
-      // (Tested last: a second difference below the step found so far is rare.)
-      const double q_curvature = std::fabs(moved - J.last_q_step);
-      const double dq_curvature = std::fabs(velocity_step - J.last_dq_step);
-      if (q_curvature > 0 && (J.q_quantum == 0 || q_curvature < J.q_quantum) &&
-          q_curvature > kRoundingUlps * kEpsilon * (std::fabs(q_a[j]) + std::fabs(q_b[j])))
-        J.q_quantum = q_curvature;
-      if (dq_curvature > 0 && (J.dq_quantum == 0 || dq_curvature < J.dq_quantum) &&
-          dq_curvature > kRoundingUlps * kEpsilon * (std::fabs(dq_a[j]) + std::fabs(dq_b[j])))
-        J.dq_quantum = dq_curvature;
+      lower_quantum(J.q_quantum, std::fabs(moved - J.last_q_step), q_a[j], q_b[j]);
+      lower_quantum(J.dq_quantum, std::fabs(velocity_step - J.last_dq_step), dq_a[j], dq_b[j]);
     }
     // The velocity's departure from the trend, as velocity_jumps() measures it.
     const double torque_step = tau_b[j] - tau_a[j];
