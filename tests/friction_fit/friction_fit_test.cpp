@@ -302,6 +302,62 @@ TEST(FrictionFit, ParallelJointsMatchSequential) {
   }
 }
 
+// A joint fitted again (FitAgain) ends as a fit with its last options from the start would,
+// whatever the threads and whenever the other joints finish; what the callback throws comes out.
+TEST(FrictionFit, JointFittedAgainEqualsItsLastOptions) {
+  std::vector<friction_fit::JointSeries> series;
+  for (int joint = 0; joint < 3; ++joint) {
+    SyntheticOptions so;
+    so.r_noise = 0.1;
+    so.seed = 15 + static_cast<std::uint64_t>(joint);
+    auto d = make_synthetic(kTable1[joint], kFirstOrder, so).series;
+    d.joint = joint + 1;
+    series.push_back(d);
+  }
+  const std::vector<momentum::observer::Gains> gains(3, kFirstOrder);
+  auto o = quick_options();
+  o.global.genetic.population = 20;
+  o.global.genetic.generations = 10;
+  // Joint 2 twice more, each time in a box with a lower upper bound on sigma2.
+  auto narrowed = [&](int times) {
+    auto n = o;
+    for (int k = 0; k < times; ++k) n.bounds.upper[2] *= 0.5;
+    return n;
+  };
+  std::vector<friction_fit::FitOptions> last{o, narrowed(2), o};
+  const auto direct = friction_fit::fit_joints(series, gains, last, 2);
+  for (int threads : {1, 2}) {
+    std::vector<int> calls(3, 0);
+    const auto again = [&](std::size_t i, const friction_fit::JointFit& fit, friction_fit::FitOptions& options) {
+      EXPECT_EQ(fit.joint, static_cast<int>(i) + 1);
+      if (i != 1 || calls[i]++ == 2) return false;
+      options.bounds.upper[2] *= 0.5;
+      return true;
+    };
+    const auto fits =
+        friction_fit::fit_joints(series, gains, std::vector<friction_fit::FitOptions>(3, o), threads, {}, again);
+    EXPECT_EQ(calls[1], 3) << threads << " threads";
+    for (std::size_t j = 0; j < 3; ++j) {
+      EXPECT_TRUE(same_bits(direct[j].model.metrics.cost, fits[j].model.metrics.cost)) << "joint " << j + 1;
+      EXPECT_TRUE(same_bits(direct[j].static_model->metrics.cost, fits[j].static_model->metrics.cost));
+    }
+  }
+  const auto fails = [](std::size_t i, const friction_fit::JointFit&, friction_fit::FitOptions&) -> bool {
+    if (i == 2) throw std::runtime_error("joint 3 refused");
+    return false;
+  };
+  EXPECT_THROW(
+      {
+        try {
+          friction_fit::fit_joints(series, gains, std::vector<friction_fit::FitOptions>(3, o), 2, {}, fails);
+        } catch (const std::runtime_error& e) {
+          EXPECT_STREQ(e.what(), "joint 3 refused");
+          throw;
+        }
+      },
+      std::runtime_error);
+}
+
 // Static models recover their own parameters; Coulomb-viscous is linear and exact.
 TEST(FrictionFit, StaticModels) {
   SyntheticOptions so;

@@ -1,11 +1,13 @@
 #include "momentum/friction_fit/friction_fit.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <exception>
 #include <limits>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <thread>
@@ -269,7 +271,7 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
 std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const std::vector<observer::Gains>& gains,
                                  const std::vector<FitOptions>& joint_options, int threads,
-                                 const JointProgressCallback& progress) {
+                                 const JointProgressCallback& progress, const FitAgain& again) {
   if (gains.size() != data.size())
     throw std::invalid_argument("friction fit: one set of gains per joint needed");
   if (joint_options.size() != data.size())
@@ -278,92 +280,124 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
   std::string why;
   for (const auto& o : joint_options)
     if (!o.IsValid(&why)) throw std::invalid_argument("friction fit: " + why);
-  const FitOptions& options = joint_options.front();  // the model and its comparisons: the same for every joint
+  const FitOptions& first = joint_options.front();  // the model and its comparisons: the same for every joint
   for (std::size_t i = 0; i < data.size(); ++i) {
     if (!gains[i].IsValid(&why)) throw std::invalid_argument("friction fit: observer gains: " + why);
     if (data[i].scored_count() == 0)
       throw Error("joint " + std::to_string(data[i].joint) + ": no sample to fit");
   }
-  // One task per model and joint (the chosen models first: they take longest), so that three
-  // joints with their static comparisons spread evenly over two cores. Each task's seed
-  // depends only on the joint and the model, as in fit_joint.
-  enum class Which { model, static_model, symmetric };
+  // One task per model and joint, and one that refits a joint's LuGre from its Stribeck fit
+  // (refit_from_static) once both are done, so that three joints with their static
+  // comparisons spread evenly over two cores. A joint fitted again (`again`) queues its tasks
+  // ahead of those waiting: a core that finishes early takes them instead of idling until the
+  // other joints are done. Each task's seed depends only on the joint and the model, as in
+  // fit_joint, so no result depends on the schedule.
+  enum class Which { model, symmetric, static_model, refit };
+  constexpr std::size_t kKinds = 4;
   struct Task {
     std::size_t joint;
     Which which;
   };
-  std::vector<Task> tasks;
-  for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::model});
-  if (options.asymmetric)
-    for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::symmetric});
-  if (options.kind == Kind::lugre && options.compare_static)
-    for (std::size_t i = 0; i < data.size(); ++i) tasks.push_back({i, Which::static_model});
+  std::vector<FitOptions> options = joint_options;
   std::vector<JointFit> results(data.size());
-  std::vector<std::exception_ptr> errors(tasks.size());
-  std::atomic<std::size_t> next{0};
-  auto work = [&] {
-    for (std::size_t n = next++; n < tasks.size(); n = next++) {
-      const auto& task = tasks[n];
-      const auto& d = data[task.joint];
-      const std::uint64_t seed = core::derive_seed(options.global.genetic.seed, static_cast<std::uint64_t>(d.joint));
-      try {
-        const auto start = std::chrono::steady_clock::now();
-        const bool is_static = task.which == Which::static_model;
-        const bool is_symmetric = task.which == Which::symmetric;
-        FitOptions own = joint_options[task.joint];
-        if (is_symmetric) own.asymmetric = false;
-        ModelFit fit = fit_model(d, gains[task.joint], is_static ? Kind::stribeck : own.kind, own,
-                                 core::derive_seed(seed, is_static ? 1 : is_symmetric ? 2 : 0), d.joint, progress);
-        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        auto& r = results[task.joint];  // each slot written by one task only
-        if (is_static) {
-          r.static_model = std::move(fit);
-          r.static_seconds = seconds;
-        } else if (is_symmetric) {
-          r.symmetric_model = std::move(fit);
-          r.symmetric_seconds = seconds;
-        } else {
-          r.joint = d.joint;
-          r.model = std::move(fit);
-          r.model_seconds = seconds;
-        }
-      } catch (...) {
-        errors[n] = std::current_exception();
+  std::vector<std::exception_ptr> errors(data.size() * kKinds);  // joint-major by kind
+  std::vector<int> fits_left(data.size(), 0);                      // model tasks before the refit
+  std::deque<Task> queue;
+  auto fit_tasks = [&](std::size_t i) {
+    std::vector<Task> t{{i, Which::model}};
+    if (first.asymmetric) t.push_back({i, Which::symmetric});
+    if (first.kind == Kind::lugre && first.compare_static) t.push_back({i, Which::static_model});
+    fits_left[i] = static_cast<int>(t.size());
+    return t;
+  };
+  {
+    // The chosen models first: they take longest.
+    std::vector<std::vector<Task>> per_joint;
+    for (std::size_t i = 0; i < data.size(); ++i) per_joint.push_back(fit_tasks(i));
+    for (std::size_t k = 0; k < per_joint.front().size(); ++k)
+      for (const auto& t : per_joint) queue.push_back(t[k]);
+  }
+  std::size_t unfinished = queue.size();  // queued or running
+  std::mutex mutex;
+  std::condition_variable changed;
+  auto run = [&](const Task& task) {
+    const std::size_t i = task.joint;
+    const auto& d = data[i];
+    const std::uint64_t seed = core::derive_seed(first.global.genetic.seed, static_cast<std::uint64_t>(d.joint));
+    auto& r = results[i];  // a joint's fits write their own fields; its refit runs after them
+    const auto start = std::chrono::steady_clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    switch (task.which) {
+      case Which::model:
+        r.joint = d.joint;
+        r.model = fit_model(d, gains[i], options[i].kind, options[i], core::derive_seed(seed, 0), d.joint, progress);
+        r.model_seconds = elapsed();
+        break;
+      case Which::symmetric: {
+        FitOptions own = options[i];
+        own.asymmetric = false;
+        r.symmetric_model = fit_model(d, gains[i], own.kind, own, core::derive_seed(seed, 2), d.joint, progress);
+        r.symmetric_seconds = elapsed();
+        break;
       }
+      case Which::static_model:
+        r.static_model = fit_model(d, gains[i], Kind::stribeck, options[i], core::derive_seed(seed, 1), d.joint, progress);
+        r.static_seconds = elapsed();
+        break;
+      case Which::refit:
+        // LuGre fits worse than their joint's Stribeck fit, fitted again.
+        refit_from_static(r, d, gains[i], options[i], core::derive_seed(seed, 0), progress);
+        r.model_seconds += elapsed();
+        r.seconds = r.model_seconds + r.static_seconds + r.symmetric_seconds;
+        break;
+    }
+  };
+  auto work = [&] {
+    std::unique_lock lock(mutex);
+    for (;;) {
+      changed.wait(lock, [&] { return !queue.empty() || unfinished == 0; });
+      if (queue.empty()) return;
+      const Task task = queue.front();
+      queue.pop_front();
+      lock.unlock();
+      std::exception_ptr error;
+      try {
+        run(task);
+      } catch (...) {
+        error = std::current_exception();
+      }
+      const std::size_t i = task.joint;
+      std::vector<Task> next;
+      if (!error && task.which == Which::refit && again) {
+        try {
+          if (again(i, results[i], options[i])) next = fit_tasks(i);
+        } catch (...) {
+          error = std::current_exception();
+        }
+      }
+      lock.lock();
+      if (error) {
+        errors[i * kKinds + static_cast<std::size_t>(task.which)] = error;
+      } else if (task.which != Which::refit && --fits_left[i] == 0) {
+        next = {{i, Which::refit}};
+      }
+      // A joint's next step goes first: it is what the others may end up waiting for.
+      for (auto t = next.rbegin(); t != next.rend(); ++t) queue.push_front(*t);
+      unfinished += next.size();
+      --unfinished;
+      changed.notify_all();
     }
   };
   if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  const auto count = std::min<std::size_t>(static_cast<std::size_t>(threads), tasks.size());
+  const auto count = std::min<std::size_t>(static_cast<std::size_t>(threads), queue.size());
   std::vector<std::thread> pool;
   for (std::size_t i = 1; i < count; ++i) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
-  for (auto& e : errors)
-    if (e) std::rethrow_exception(e);
-  // LuGre fits worse than their joint's Stribeck fit, fitted again (refit_from_static), as
-  // many at once as the tasks above.
-  std::atomic<std::size_t> next_joint{0};
-  std::vector<std::exception_ptr> refit_errors(results.size());
-  auto refit = [&] {
-    for (std::size_t i = next_joint++; i < results.size(); i = next_joint++) {
-      auto& r = results[i];
-      const std::uint64_t seed = core::derive_seed(options.global.genetic.seed, static_cast<std::uint64_t>(data[i].joint));
-      const auto start = std::chrono::steady_clock::now();
-      try {
-        refit_from_static(r, data[i], gains[i], joint_options[i], core::derive_seed(seed, 0), progress);
-      } catch (...) {
-        refit_errors[i] = std::current_exception();
-      }
-      r.model_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    }
-  };
-  pool.clear();
-  for (std::size_t i = 1; i < count; ++i) pool.emplace_back(refit);
-  refit();
-  for (auto& t : pool) t.join();
-  for (auto& e : refit_errors)
-    if (e) std::rethrow_exception(e);
-  for (auto& r : results) r.seconds = r.model_seconds + r.static_seconds + r.symmetric_seconds;
+  // The first failure by kind, then joint: the order in which the tasks were queued.
+  for (std::size_t k = 0; k < kKinds; ++k)
+    for (std::size_t i = 0; i < data.size(); ++i)
+      if (errors[i * kKinds + k]) std::rethrow_exception(errors[i * kKinds + k]);
   return results;
 }
 

@@ -114,60 +114,46 @@ std::vector<JointIdentification> identify_friction(const std::vector<JointSeries
     }
     joint_options[i].bounds = r.bounds;
   }
-  std::vector<std::size_t> pending(data.size());
-  for (std::size_t i = 0; i < data.size(); ++i) pending[i] = i;
-  for (int round = 0;; ++round) {
-    std::vector<JointSeries> batch_data;
-    std::vector<observer::Gains> batch_gains;
-    std::vector<FitOptions> batch_options;
-    for (std::size_t i : pending) {
-      batch_data.push_back(data[i]);
-      batch_gains.push_back(gains[i]);
-      batch_options.push_back(joint_options[i]);
-    }
-    auto fits = fit_joints(batch_data, batch_gains, batch_options, options.threads, progress);
-    std::vector<std::size_t> again;
-    for (std::size_t b = 0; b < pending.size(); ++b) {
-      const std::size_t i = pending[b];
-      auto& r = result[i];
-      r.fit = std::move(fits[b]);
-      r.bounds = joint_options[i].bounds;
-      const auto hits = on_bounds(r.fit.model);
-      std::vector<std::pair<int, int>> widen;
-      for (const auto& [p, side] : hits)
-        if (!options.user_bounds[static_cast<std::size_t>(p)]) widen.emplace_back(p, side);
-      if (!widen.empty() && round < options.max_widenings) {
-        auto& box = joint_options[i].bounds;
-        for (const auto& [p, side] : widen) {
-          const auto u = static_cast<std::size_t>(p);
-          if (p >= 6) {
-            box.lower[u] *= options.widen_factor;
-            box.upper[u] *= options.widen_factor;
-          } else if (side > 0) {
-            box.upper[u] *= options.widen_factor;
-          } else {
-            box.lower[u] /= options.widen_factor;
-          }
-        }
-        ++r.widenings;
-        again.push_back(i);
-        continue;
-      }
-      // What is left on a bound: a failure when the model needs the parameter determined.
-      for (const auto& [p, side] : hits) {
+  // A joint is fitted again as soon as its fit ends on a bound, while the others are still
+  // being fitted.
+  auto widen_or_judge = [&](std::size_t i, const JointFit& fit, FitOptions& joint) {
+    auto& r = result[i];
+    r.bounds = joint.bounds;
+    const auto hits = on_bounds(fit.model);
+    std::vector<std::pair<int, int>> widen;
+    for (const auto& [p, side] : hits)
+      if (!options.user_bounds[static_cast<std::size_t>(p)]) widen.emplace_back(p, side);
+    if (!widen.empty() && r.widenings < options.max_widenings) {
+      auto& box = joint.bounds;
+      for (const auto& [p, side] : widen) {
         const auto u = static_cast<std::size_t>(p);
-        const double bound = side > 0 ? r.bounds.upper[u] : r.bounds.lower[u];
-        if (!r.failure.empty()) r.failure += "; ";
-        r.failure += std::string(friction::kParameterNames[p]) + " ends on its " + (side > 0 ? "upper" : "lower") +
-                     " bound " + core::significant(bound, 6) +
-                     (options.user_bounds[u] ? std::string(" (given by --bounds)")
-                                             : " after " + std::to_string(r.widenings) + " widening" +
-                                                   (r.widenings == 1 ? "" : "s"));
+        if (p >= 6) {
+          box.lower[u] *= options.widen_factor;
+          box.upper[u] *= options.widen_factor;
+        } else if (side > 0) {
+          box.upper[u] *= options.widen_factor;
+        } else {
+          box.lower[u] /= options.widen_factor;
+        }
       }
+      ++r.widenings;
+      return true;
     }
-    if (again.empty()) break;
-    pending = std::move(again);
-  }
+    // What is left on a bound: a failure when the model needs the parameter determined.
+    for (const auto& [p, side] : hits) {
+      const auto u = static_cast<std::size_t>(p);
+      const double bound = side > 0 ? r.bounds.upper[u] : r.bounds.lower[u];
+      if (!r.failure.empty()) r.failure += "; ";
+      r.failure += std::string(friction::kParameterNames[p]) + " ends on its " + (side > 0 ? "upper" : "lower") +
+                   " bound " + core::significant(bound, 6) +
+                   (options.user_bounds[u] ? std::string(" (given by --bounds)")
+                                           : " after " + std::to_string(r.widenings) + " widening" +
+                                                 (r.widenings == 1 ? "" : "s"));
+    }
+    return false;
+  };
+  auto fits = fit_joints(data, gains, joint_options, options.threads, progress, widen_or_judge);
+  for (std::size_t i = 0; i < data.size(); ++i) result[i].fit = std::move(fits[i]);
   return result;
 }
 

@@ -240,12 +240,19 @@ std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const FitOptions& options, int threads = 0,
                                  const JointProgressCallback& progress = {});
 
+// Called when joint `index` (of fit_joints' data) is fitted: true, with `options` changed (e.g.
+// a wider box), to fit it again with them, the new fit replacing `fit`. Called from a worker
+// thread, one call at a time per joint; calls for different joints may overlap.
+using FitAgain = std::function<bool(std::size_t index, const JointFit& fit, FitOptions& options)>;
+
 // The same with options per joint (joint_options[i] for data[i], e.g. each joint's own search
 // box); the model, the comparisons (compare_static, asymmetric) and the seed are those of
-// joint_options[0] for every joint. Throws std::invalid_argument when the sizes differ.
+// joint_options[0] for every joint. With `again`, a joint is fitted again for as long as it
+// says so, as soon as its last fit is done and on the first free thread. Throws
+// std::invalid_argument when the sizes differ; what `again` throws is rethrown.
 std::vector<JointFit> fit_joints(const std::vector<JointSeries>& data,
                                  const std::vector<observer::Gains>& gains,
                                  const std::vector<FitOptions>& joint_options, int threads = 0,
-                                 const JointProgressCallback& progress = {});
+                                 const JointProgressCallback& progress = {}, const FitAgain& again = {});
 
 }  // namespace momentum::friction_fit
