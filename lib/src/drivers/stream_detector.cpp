@@ -57,8 +57,17 @@ class LiveInput {
         throw Error("standard input is closed (give an input file, or a stream on standard input)");
       poll_fd_ = 0;
     } else if (::stat(path.c_str(), &st) == 0 && (S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode))) {
-      own_fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+      // Opened without waiting for a writer (a blocking open would wait where no signal is
+      // watched: SIGINT would end the process there), then read blocking: until a writer
+      // comes, poll() in wait() waits for it together with the signals.
+      own_fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
       if (own_fd_ < 0) throw Error(path + ": cannot open: " + std::strerror(errno));
+      const int flags = ::fcntl(own_fd_, F_GETFL);
+      if (flags < 0 || ::fcntl(own_fd_, F_SETFL, flags & ~O_NONBLOCK) != 0) {
+        const int saved = errno;
+        ::close(own_fd_);
+        throw Error(path + ": cannot open: " + std::strerror(saved));
+      }
       poll_fd_ = own_fd_;
       open_path_ = "/dev/fd/" + std::to_string(own_fd_);
       display_name_ = path;
