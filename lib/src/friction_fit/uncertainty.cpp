@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 
 #include "momentum/core/number.hpp"
 #include "momentum/core/random.hpp"
@@ -335,6 +334,8 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
   // a bound, and held there they would show no move at all.
   if (jacobian.rows() > 0 && jacobian.allFinite()) {
     constexpr int kStepsPerSlowInterval = 16, kIterations = 10;
+    Problem fine = problem;
+    fine.resolve_slow = kStepsPerSlowInterval;
     double all[kParameterCount];
     fit.parameters.to_array(all);
     std::vector<double> x(nfree), start(nfree), lower(nfree), upper(nfree);
@@ -348,67 +349,13 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
       lower[j] = moves[j] ? (lo >= 0 ? 0.0 : 10 * lo) / problem.scale[i] : x[j];
       upper[j] = moves[j] ? (hi <= 0 ? 0.0 : 10 * hi) / problem.scale[i] : x[j];
     }
-    // How far a Levenberg-Marquardt refit of `refitted` from the estimate moves each free
-    // parameter (those not moving stay); nullopt when the refit fails.
-    auto refit_shift = [&](const Problem& refitted) -> std::optional<std::vector<double>> {
-      Eigen::VectorXd e;
-      Eigen::MatrixXd refit_jacobian;
-      std::uint64_t plain = 0;
-      std::vector<double> y = start;
-      if (refine_levenberg_marquardt(refitted, y, lower, upper, e, refit_jacobian, &plain, kIterations) <= 0)
-        return std::nullopt;
+    Eigen::VectorXd e;
+    Eigen::MatrixXd fine_jacobian;
+    std::uint64_t plain = 0;
+    if (std::count(moves.begin(), moves.end(), true) > 0 &&
+        refine_levenberg_marquardt(fine, x, lower, upper, e, fine_jacobian, &plain, kIterations) > 0)
       for (std::size_t j = 0; j < nfree; ++j)
-        y[j] = (y[j] - start[j]) * problem.scale[static_cast<std::size_t>(problem.free[j])];
-      return y;
-    };
-    std::vector<std::size_t> moving;
-    for (std::size_t j = 0; j < nfree; ++j)
-      if (moves[j]) moving.push_back(j);
-    if (!moving.empty()) {
-      Problem fine = problem;
-      fine.resolve_slow = kStepsPerSlowInterval;
-      if (const auto moved = refit_shift(fine))
-        for (std::size_t j : moving) shift[j] = (*moved)[j];
-    }
-    // Velocity noise on a bristle parameter at a bound of the box: the first-order shift above
-    // is no measure there, for the reason the sub-sample shift is a refit; the mean move of
-    // refits on the data with a second dose of the velocity's noise is. The velocity's noise
-    // acts on the bristles' transient after each reversal, where the one-step model's
-    // response to sigma0 and sigma1 is steepest: on the simulated paper arm at 125 Hz (seed 24,
-    // 1 h, joint 2) sigma0 ended on its lower bound 60,000 with a standard error of 14,900,
-    // and this refit moves it by -43,600: the velocity's noise, not the friction, put it there,
-    // so it is no reason to widen the box (the fit in a box widened for it took sigma1 to 270
-    // +- 54 against the truth's 499). Only there: for tau_s, the same refit gave a shift of the
-    // wrong sign.
-    std::vector<std::size_t> bristles_at_bound;
-    for (std::size_t j : moving) {
-      const auto i = static_cast<std::size_t>(problem.free[j]);
-      const double lo = options.bounds.lower[i], hi = options.bounds.upper[i], near = 1e-6 * (hi - lo);
-      if (i <= 1 && (all[i] <= lo + near || all[i] >= hi - near)) bristles_at_bound.push_back(j);
-    }
-    if (fit.velocity_noise > 0 && !bristles_at_bound.empty()) {
-      constexpr int kDoses = 2;
-      core::Random rng(core::derive_seed(seed, 0x5ee1));
-      JointSeries noisy;  // the data without positions (the model does not read them)
-      noisy.t = data.t;
-      noisy.r = data.r;
-      noisy.restart = data.restart;
-      noisy.scored = data.scored;
-      Problem perturbed = problem;  // the same samples, intervals and nuisance; dq alone differs
-      perturbed.data = &noisy;
-      std::vector<double> sum(nfree, 0.0);
-      int done = 0;
-      for (int dose = 0; dose < kDoses; ++dose) {
-        noisy.dq = data.dq;
-        for (auto& v : noisy.dq) v += fit.velocity_noise * rng.normal_unpaired();
-        if (const auto moved = refit_shift(perturbed)) {
-          for (std::size_t j : bristles_at_bound) sum[j] += (*moved)[j];
-          ++done;
-        }
-      }
-      if (done > 0)
-        for (std::size_t j : bristles_at_bound) velocity_shift[j] = sum[j] / done;
-    }
+        if (moves[j]) shift[j] = (x[j] - start[j]) * problem.scale[static_cast<std::size_t>(problem.free[j])];
   }
   return {std::move(standard_error), std::move(shift), std::move(velocity_shift), std::move(undetermined)};
 }
