@@ -259,7 +259,9 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     // quantisation floor being the other candidate of its max): agreed, without the median
     // and the floor's square root.
     if (std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.lower_bound() * stretch)) continue;
-    // Beyond it: judged on the scale brought up to date.
+    // Beyond it: judged on the scale brought up to date, and on the position's step when this
+    // move is one the velocity does not explain and the second of its size.
+    if (std::fabs(0.5 * dt * (dq_a[j] + dq_b[j])) < 0.5 * std::fabs(moved)) note_unexplained_move(J, std::fabs(moved));
     refresh(J.abs_error);
     const double tol = tolerance_as_computed(index, dt, typical_dt);
     if (!(std::fabs(e) <= tol)) {
@@ -270,6 +272,17 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     }
   }
   return false;
+}
+
+void SignalCheck::note_unexplained_move(Joint& J, double moved) {
+  if (J.rest_candidate > 0 && std::fabs(moved - J.rest_candidate) <= 0.1 * J.rest_candidate) {
+    const double step = std::min(moved, J.rest_candidate);
+    J.rest_step = J.rest_step > 0 ? std::min(J.rest_step, step) : step;
+    J.rest_candidate = 0;
+    J.q_quantum = std::max(J.q_curvature_quantum, J.rest_step);
+  } else if (J.rest_candidate == 0 || moved < J.rest_candidate) {
+    J.rest_candidate = moved;
+  }
 }
 
 void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const double* tau_a, double t_b,
@@ -296,7 +309,8 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
     if (warming || !J.abs_error.bound_holds()) J.abs_error.update();
     const double velocity_step = dq_b[j] - dq_a[j];
     if (continues) {
-      lower_quantum(J.q_quantum, std::fabs(moved - J.last_q_step), q_a[j], q_b[j]);
+      lower_quantum(J.q_curvature_quantum, std::fabs(moved - J.last_q_step), q_a[j], q_b[j]);
+      J.q_quantum = std::max(J.q_curvature_quantum, J.rest_step);
       lower_quantum(J.dq_quantum, std::fabs(velocity_step - J.last_dq_step), dq_a[j], dq_b[j]);
     }
     // The velocity's departure from the trend, as velocity_jumps() measures it.

@@ -140,9 +140,19 @@ class SignalCheck {
     double last_tau_step = 0;  // Nm
     // Quantisation steps: the smallest nonzero second difference seen (of consecutive
     // intervals), which is a multiple of the step for a quantised signal and as small as the
-    // motion's own curvature for a fine one; 0 none yet. rad, rad/s.
+    // motion's own curvature for a fine one; 0 none yet. rad, rad/s. For the position, the
+    // larger of that and rest_step.
     double q_quantum = 0;
     double dq_quantum = 0;
+    double q_curvature_quantum = 0;  // the position's smallest nonzero second difference
+    // A position quantised coarser than it is written (encoder counts of 1.2e-5 rad written
+    // with 7 decimals) has second differences of a count plus or minus the writing's rounding,
+    // and the rounding alone (1e-7) is the smallest: no measure of the count. Its moves that
+    // the velocity does not explain (less than half of them: a count at rest) are a count
+    // each. rest_step: the smallest such move seen twice (within a tenth), 0 none yet;
+    // rest_candidate: the smallest seen once since, awaiting its second. A glitch's size does
+    // not come twice.
+    double rest_step = 0, rest_candidate = 0;
     double last_q_step = 0, last_dq_step = 0;  // of the last interval learnt
     double lower = 0, upper = 0, velocity = 0, effort = 0;  // bounds with limit_factor
     double velocity_limit = 0;                              // the URDF's, times limit_factor
@@ -153,6 +163,8 @@ class SignalCheck {
   double velocity_tolerance_on_bound(const Joint& J) const;
   // Tolerance of the motor torque's departure from its trend one step on, Nm.
   double torque_tolerance(int j) const;
+  // Notes a move of the position that its velocity does not explain (see Joint::rest_step).
+  static void note_unexplained_move(Joint& J, double moved);
   // Recomputes `scale` when kRefreshJudged values or more came in since it was last: whether it did.
   static bool refresh(core::RunningMedian<kWindow>& scale);
 
