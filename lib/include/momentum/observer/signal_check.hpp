@@ -13,8 +13,9 @@
 // The tolerance comes from the data, per joint: a running robust scale of e over the last
 // kWindow accepted intervals (1.4826 times the median of |e|, the standard deviation for normal
 // noise), floored by the quantisation noise of the signals themselves (their steps: the smallest
-// nonzero second differences of position and velocity seen), times `sigmas`; it grows in proportion with the interval
-// when rows in between are left out. Besides, a value beyond the URDF's limits by more than
+// nonzero second differences of position and velocity seen; for the position at least its move
+// at rest that the velocity does not explain, seen twice: Joint::rest_step), times `sigmas`; it
+// grows in proportion with the interval when rows in between are left out. Besides, a value beyond the URDF's limits by more than
 // `limit_factor` (positions about the middle of their range, velocities and efforts about 0),
 // or a position change faster than limit_factor times the velocity limit, cannot be physical.
 //
