@@ -272,21 +272,37 @@ TEST(FrictionFit, GlobalSearchReproducibleAndPolishImproves) {
   EXPECT_GT(p.model.polish_iterations, 0);
 }
 
-// Joints fitted in parallel give the same bits as one after the other.
-TEST(FrictionFit, ParallelJointsMatchSequential) {
+namespace {
+
+// The paper's three joints on its motion, 0.1 Nm of noise in r, seeds first_seed.. (joints 1..3).
+std::vector<friction_fit::JointSeries> three_joints(std::uint64_t first_seed) {
   std::vector<friction_fit::JointSeries> series;
   for (int joint = 0; joint < 3; ++joint) {
     SyntheticOptions so;
     so.r_noise = 0.1;
-    so.seed = 5 + static_cast<std::uint64_t>(joint);
+    so.seed = first_seed + static_cast<std::uint64_t>(joint);
     auto d = make_synthetic(kTable1[joint], kFirstOrder, so).series;
     d.joint = joint + 1;
     series.push_back(d);
   }
-  const std::vector<momentum::observer::Gains> gains(3, kFirstOrder);
+  return series;
+}
+
+// quick_options() with a search too short to find anything: for tests of the scheduling.
+friction_fit::FitOptions few_generations() {
   auto o = quick_options();
   o.global.genetic.population = 20;
   o.global.genetic.generations = 10;
+  return o;
+}
+
+}  // namespace
+
+// Joints fitted in parallel give the same bits as one after the other.
+TEST(FrictionFit, ParallelJointsMatchSequential) {
+  const auto series = three_joints(5);
+  const std::vector<momentum::observer::Gains> gains(3, kFirstOrder);
+  const auto o = few_generations();
   const auto one = friction_fit::fit_joints(series, gains, o, 1);
   const auto two = friction_fit::fit_joints(series, gains, o, 2);
   ASSERT_EQ(one.size(), 3u);
@@ -305,19 +321,9 @@ TEST(FrictionFit, ParallelJointsMatchSequential) {
 // A joint fitted again (FitAgain) ends as a fit with its last options from the start would,
 // whatever the threads and whenever the other joints finish; what the callback throws comes out.
 TEST(FrictionFit, JointFittedAgainEqualsItsLastOptions) {
-  std::vector<friction_fit::JointSeries> series;
-  for (int joint = 0; joint < 3; ++joint) {
-    SyntheticOptions so;
-    so.r_noise = 0.1;
-    so.seed = 15 + static_cast<std::uint64_t>(joint);
-    auto d = make_synthetic(kTable1[joint], kFirstOrder, so).series;
-    d.joint = joint + 1;
-    series.push_back(d);
-  }
+  const auto series = three_joints(15);
   const std::vector<momentum::observer::Gains> gains(3, kFirstOrder);
-  auto o = quick_options();
-  o.global.genetic.population = 20;
-  o.global.genetic.generations = 10;
+  const auto o = few_generations();
   // Joint 2 twice more, each time in a box with a lower upper bound on sigma2.
   auto narrowed = [&](int times) {
     auto n = o;
