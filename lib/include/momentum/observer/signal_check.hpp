@@ -15,9 +15,10 @@
 // noise), floored by the quantisation noise of the signals themselves (their steps: the smallest
 // nonzero second differences of position and velocity seen; for the position at least its move
 // at rest that the velocity does not explain, seen twice: Joint::rest_step), times `sigmas`; it
-// grows in proportion with the interval when rows in between are left out. Besides, a value beyond the URDF's limits by more than
-// `limit_factor` (positions about the middle of their range, velocities and efforts about 0),
-// or a position change faster than limit_factor times the velocity limit, cannot be physical.
+// grows in proportion with the interval when rows in between are left out. Besides, a value
+// beyond the URDF's limits by more than `limit_factor` (positions about the middle of their
+// range, velocities and efforts about 0), or a position change faster than limit_factor times
+// the velocity limit, cannot be physical.
 //
 // At high sample rates the positions cannot see a velocity that is wrong for one row (a spike
 // of 0.09 rad/s moves the trapezoid by 4.5e-5 rad at 1 kHz, half an encoder count of 2^16 per
