@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <vector>
 
 #include "momentum/friction_fit/identify.hpp"
 #include "synthetic.hpp"
@@ -124,4 +126,40 @@ TEST(IdentifyFriction, BoundsTheUserGaveAreNotWidened) {
   EXPECT_DOUBLE_EQ(r[0].bounds.upper[2], 10.0);
   EXPECT_NE(r[0].failure.find("sigma2 ends on its upper bound 10 (given by --bounds)"), std::string::npos)
       << r[0].failure;
+}
+
+// The sub-sample term of a bristle parameter held by a bound measures the model, not the box:
+// it is where the finer model (Problem::resolve_slow) puts the parameter against where the
+// fit's own model does, both refitted in the same wider box. The paper's joint 2 with soft
+// bristles (sigma0 45,000) at 1 kHz, without noise, fitted in a box whose lower bound on sigma0
+// is 60,000 or 52,000: the fit holds sigma0 on that bound, and the term is the same for both
+// boxes. (Measured from the bound, as before, it differed by the 8,000 between the bounds; on
+// the paper arm's 8 h that hid the two models' disagreement, and the box was widened for a
+// stiffness only the one-step discretisation wants lower.)
+TEST(IdentifyFriction, SubSampleTermOfABristleOnABoundDoesNotDependOnTheBound) {
+  SyntheticOptions so;
+  so.dt = 0.001;
+  so.samples = 14000;
+  so.seed = 7;
+  const mf::Parameters<double> truth{45000, 300, 6.1838, 8.1855, 4.5407, 0.0996};
+  const auto data = make_synthetic(truth, kObserver, so);
+  std::vector<double> term;
+  for (double lower : {60000.0, 52000.0}) {
+    friction_fit::IdentifyOptions o;
+    o.fit.global.genetic.population = 40;
+    o.fit.global.genetic.generations = 40;
+    o.fit.global.genetic.restarts = 1;
+    o.fit.global.genetic.seed = 11;
+    o.max_widenings = 0;
+    o.user_bounds[0] = true;
+    o.fit.bounds.lower[0] = lower;
+    const auto r = friction_fit::identify_friction({data.series}, {kObserver}, {1000.0}, {3.0}, o);
+    const auto& sigma0 = r[0].fit.model.estimates[0];
+    EXPECT_EQ(sigma0.at_bound, -1) << lower;
+    EXPECT_DOUBLE_EQ(sigma0.value, lower);
+    ASSERT_TRUE(std::isfinite(sigma0.discretization_shift)) << sigma0.note;
+    term.push_back(sigma0.discretization_shift);
+  }
+  std::printf("sub-sample term of sigma0 on its bound: %.0f (bound 60,000), %.0f (bound 52,000)\n", term[0], term[1]);
+  EXPECT_NEAR(term[0], term[1], 0.05 * std::abs(term[0]));
 }
