@@ -146,10 +146,7 @@ TEST(IdentifyFriction, SubSampleTermOfABristleOnABoundDoesNotDependOnTheBound) {
   std::vector<double> term;
   for (double lower : {60000.0, 52000.0}) {
     friction_fit::IdentifyOptions o;
-    o.fit.global.genetic.population = 40;
-    o.fit.global.genetic.generations = 40;
-    o.fit.global.genetic.restarts = 1;
-    o.fit.global.genetic.seed = 11;
+    o.fit.global.genetic = friction_fit::quick_search();
     o.max_widenings = 0;
     o.user_bounds[0] = true;
     o.fit.bounds.lower[0] = lower;
