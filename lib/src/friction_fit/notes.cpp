@@ -91,9 +91,7 @@ void annotate_estimates(const Problem& problem, const FitOptions& options, const
     for (double part : {uncertainty.discretization_shift[j], uncertainty.velocity_noise_shift[j]})
       if (std::isfinite(part)) e.uncertainty = std::hypot(e.uncertainty, part);
     const double lo = options.bounds.lower[u], hi = options.bounds.upper[u];
-    const double near = 1e-6 * (hi - lo);
-    if (e.value <= lo + near) e.at_bound = -1;
-    if (e.value >= hi - near) e.at_bound = +1;
+    e.at_bound = options.bounds.side(u, e.value);
     const double reference = identifiability_reference(fit.parameters, i, options);
     std::string note;
     if (!uncertainty.undetermined[j].empty()) {

@@ -367,8 +367,7 @@ ParameterUncertainty estimate_uncertainty(const Problem& problem, const JointSer
       std::vector<std::size_t> bristles_on_bound;
       for (std::size_t j = 0; j < nfree; ++j) {
         const auto i = static_cast<std::size_t>(problem.free[j]);
-        const double lo = options.bounds.lower[i], hi = options.bounds.upper[i], near = 1e-6 * (hi - lo);
-        if (moves[j] && i <= 1 && (all[i] <= lo + near || all[i] >= hi - near)) bristles_on_bound.push_back(j);
+        if (moves[j] && i <= 1 && options.bounds.side(i, all[i]) != 0) bristles_on_bound.push_back(j);
       }
       std::vector<double> coarse = start;
       if (!bristles_on_bound.empty() &&

@@ -40,6 +40,13 @@ inline constexpr int kParameterCount = friction::Parameters<double>::kSize;  // 
 struct ParameterBounds {
   std::array<double, kParameterCount> lower{};
   std::array<double, kParameterCount> upper{};
+  // Which bound parameter i's `value` lies on, within a millionth of the box's width: -1 the
+  // lower, +1 the upper, 0 neither. How the report and the uncertainty tell a parameter that
+  // the box holds (i < kParameterCount).
+  int side(std::size_t i, double value) const {
+    const double near = 1e-6 * (upper[i] - lower[i]);
+    return value >= upper[i] - near ? +1 : value <= lower[i] + near ? -1 : 0;
+  }
 };
 
 // Every parameter's default search box, the paper's (friction::kDefaultSearchBox, beside the
