@@ -72,18 +72,18 @@ int SignalCheck::beyond_limits(const double* q, const double* dq, const double* 
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const Joint& J = joints_[j];
     const int index = static_cast<int>(j);
-    if (!(q[j] >= J.lower && q[j] <= J.upper)) {
+    if (!position_within(J, q[j])) {
       if (why) *why = joint_name(index) + "'s position " + core::short_number(q[j]) + " is beyond " +
                       core::short_number(options_.limit_factor) + " times its range";
       return index;
     }
-    if (!(std::fabs(dq[j]) <= J.velocity)) {
+    if (!velocity_within(J, dq[j])) {
       if (why) *why = joint_name(index) + "'s velocity " + core::short_number(dq[j]) + " is beyond " +
                       core::short_number(J.velocity) + " (" + core::short_number(options_.limit_factor) +
                       " times its limit)";
       return index;
     }
-    if (!(std::fabs(tau[j]) <= J.effort)) {
+    if (!effort_within(J, tau[j])) {
       if (why) *why = joint_name(index) + "'s torque " + core::short_number(tau[j]) + " is beyond " +
                       core::short_number(J.effort) + " (" + core::short_number(options_.limit_factor) +
                       " times its effort limit)";
@@ -219,11 +219,10 @@ bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const Joint& J = joints_[j];
     // As beyond_limits().
-    if (!(q_b[j] >= J.lower && q_b[j] <= J.upper && std::fabs(dq_b[j]) <= J.velocity && std::fabs(tau_b[j]) <= J.effort))
-      return false;
+    if (!(position_within(J, q_b[j]) && velocity_within(J, dq_b[j]) && effort_within(J, tau_b[j]))) return false;
     // As disagree(), on the scale's lower bound.
     const double moved = q_b[j] - q_a[j];
-    if (!(std::fabs(moved) <= J.velocity_limit * dt + J.q_quantum)) return false;
+    if (!move_within_velocity_limit(J, moved, dt)) return false;
     // The quantisation floor without its velocity term (at rest, where the scale is 0).
     if (ready() && !(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])) <=
                      std::max(position_scale * J.abs_error.lower_bound(), options_.sigmas * J.q_quantum * kInvSqrt6)))
@@ -247,7 +246,7 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     const int index = static_cast<int>(j);
     const double moved = q_b[j] - q_a[j];
     // Faster than the drive can move, whatever the velocity signal says.
-    if (!(std::fabs(moved) <= J.velocity_limit * dt + J.q_quantum)) {
+    if (!move_within_velocity_limit(J, moved, dt)) {
       if (why) *why = joint_name(index) + "'s position moved " + core::short_number(moved) + " in " +
                       core::short_number(dt) + " s, beyond " + core::short_number(options_.limit_factor) +
                       " times its velocity limit";

@@ -35,6 +35,7 @@
 // it, and a departure of 1e-5 rad/s implies no torque worth a judgement.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -159,6 +160,14 @@ class SignalCheck {
     double lower = 0, upper = 0, velocity = 0, effort = 0;  // bounds with limit_factor
     double velocity_limit = 0;                              // the URDF's, times limit_factor
   };
+  // The physical bounds of one joint's values (beyond_limits()), and its position's move
+  // against its velocity limit (disagree()): the one definition that plainly_passes() shares.
+  static bool position_within(const Joint& J, double q) { return q >= J.lower && q <= J.upper; }
+  static bool velocity_within(const Joint& J, double dq) { return std::fabs(dq) <= J.velocity; }
+  static bool effort_within(const Joint& J, double tau) { return std::fabs(tau) <= J.effort; }
+  static bool move_within_velocity_limit(const Joint& J, double moved, double dt) {
+    return std::fabs(moved) <= J.velocity_limit * dt + J.q_quantum;
+  }
   // tolerance() on the scale as last computed.
   double tolerance_as_computed(int j, double interval, double typical_dt) const;
   // velocity_tolerance() on the lower bound of the velocity's scale (rad/s).
