@@ -411,6 +411,18 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       for (int j = 0; j < n; ++j) held_dq[j] = b[dq_index_[j]];
       return check.velocity_on_trend(good_t, good_dq.data(), b[t_index_], held_dq.data(), t, dq.data());
     };
+    // One row held for disagreeing, and this row's velocity continues its change monotonically
+    // (SignalCheck::velocity_change_explains): the arm changed speed within a sample.
+    auto velocity_change_explains_held = [&] {
+      if (held_count != 1 || held[0].jump || held[0].impossible) return false;
+      const std::vector<double>& b = held[0].values;
+      for (int j = 0; j < n; ++j) {
+        held_q[j] = b[q_index_[j]];
+        held_dq[j] = b[dq_index_[j]];
+      }
+      return check.velocity_change_explains(good_t, good_q.data(), good_dq.data(), b[t_index_], held_q.data(),
+                                            held_dq.data(), t, q.data(), dq.data(), typical_dt);
+    };
     auto agrees_with_last_held = [&] {
       const std::vector<double>& last = held[held_count - 1].values;
       for (int j = 0; j < n; ++j) {
@@ -441,6 +453,10 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       // good row (a velocity spike that came back excepted, above), so that a row that agrees
       // with both (an impact within one interval, which the trapezoid over the longer interval
       // may also pass) is observed, not left out.
+      release_held(true);
+      process(row, duplicate, nullptr, false);
+      return;
+    } else if (!impossible && velocity_change_explains_held()) {
       release_held(true);
       process(row, duplicate, nullptr, false);
       return;

@@ -273,6 +273,26 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
   return false;
 }
 
+bool SignalCheck::velocity_change_explains(double t_a, const double* q_a, const double* dq_a, double t_b,
+                                           const double* q_b, const double* dq_b, double t_c, const double* q_c,
+                                           const double* dq_c, double typical_dt) {
+  if (!(ready() && t_a < t_b && t_b < t_c)) return false;
+  const double dt1 = t_b - t_a, dt2 = t_c - t_b;
+  for (std::size_t j = 0; j < joints_.size(); ++j) {
+    const int index = static_cast<int>(j);
+    const double change1 = dq_b[j] - dq_a[j], change2 = dq_c[j] - dq_b[j];
+    const double e1 = q_b[j] - q_a[j] - 0.5 * dt1 * (dq_a[j] + dq_b[j]);
+    const double e2 = q_c[j] - q_b[j] - 0.5 * dt2 * (dq_b[j] + dq_c[j]);
+    const double tol1 = tolerance(index, dt1, typical_dt), tol2 = tolerance(index, dt2, typical_dt);
+    // A joint whose rows agree needs no explanation (its velocity's noise may wiggle).
+    if (std::fabs(e1) <= tol1 && std::fabs(e2) <= tol2) continue;
+    if (change1 * change2 < 0) return false;
+    if (!(std::fabs(e1) <= 0.5 * dt1 * std::fabs(change1) + tol1)) return false;
+    if (!(std::fabs(e2) <= 0.5 * dt2 * std::fabs(change2) + tol2)) return false;
+  }
+  return true;
+}
+
 void SignalCheck::note_unexplained_move(Joint& J, double moved) {
   if (J.rest_candidate > 0 && std::fabs(moved - J.rest_candidate) <= 0.1 * J.rest_candidate) {
     const double step = std::min(moved, J.rest_candidate);
