@@ -403,34 +403,32 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       return !have_good || after_gap ||
              !check.disagree(good_t, good_q.data(), good_dq.data(), t, q.data(), dq.data(), typical_dt, reason);
     };
+    // A held row's q and dq into held_q and held_dq; its time.
+    auto unpack_held = [&](const Held& h) {
+      for (int j = 0; j < n; ++j) {
+        held_q[j] = h.values[q_index_[j]];
+        held_dq[j] = h.values[dq_index_[j]];
+      }
+      return h.values[t_index_];
+    };
     // One held row whose velocity jumped, and this row's velocity is back on the trend of the
     // rows before it: a one-row spike of the velocity signal.
     auto jump_came_back = [&] {
       if (held_count != 1 || !held[0].jump) return false;
-      const std::vector<double>& b = held[0].values;
-      for (int j = 0; j < n; ++j) held_dq[j] = b[dq_index_[j]];
-      return check.velocity_on_trend(good_t, good_dq.data(), b[t_index_], held_dq.data(), t, dq.data());
+      const double t_held = unpack_held(held[0]);
+      return check.velocity_on_trend(good_t, good_dq.data(), t_held, held_dq.data(), t, dq.data());
     };
     // One row held for disagreeing, and this row's velocity continues its change monotonically
     // (SignalCheck::velocity_change_explains): the arm changed speed within a sample.
     auto velocity_change_explains_held = [&] {
       if (held_count != 1 || held[0].jump || held[0].impossible) return false;
-      const std::vector<double>& b = held[0].values;
-      for (int j = 0; j < n; ++j) {
-        held_q[j] = b[q_index_[j]];
-        held_dq[j] = b[dq_index_[j]];
-      }
-      return check.velocity_change_explains(good_t, good_q.data(), good_dq.data(), b[t_index_], held_q.data(),
+      const double t_held = unpack_held(held[0]);
+      return check.velocity_change_explains(good_t, good_q.data(), good_dq.data(), t_held, held_q.data(),
                                             held_dq.data(), t, q.data(), dq.data(), typical_dt);
     };
     auto agrees_with_last_held = [&] {
-      const std::vector<double>& last = held[held_count - 1].values;
-      for (int j = 0; j < n; ++j) {
-        held_q[j] = last[q_index_[j]];
-        held_dq[j] = last[dq_index_[j]];
-      }
-      return !check.disagree(last[t_index_], held_q.data(), held_dq.data(), t, q.data(), dq.data(), typical_dt,
-                             nullptr);
+      const double t_held = unpack_held(held[held_count - 1]);
+      return !check.disagree(t_held, held_q.data(), held_dq.data(), t, q.data(), dq.data(), typical_dt, nullptr);
     };
     if (held_count == 0) {
       std::string jump_why;
