@@ -132,12 +132,11 @@ class SignalCheck {
 
   // Whether row b, which disagrees with row a, is explained by a velocity that changed
   // monotonically from a through b to c within the intervals (t_a < t_b < t_c): on every joint
-  // whose rows disagree, the velocity at b lies between those at a and c, each interval's |e| is
-  // within half the interval times its velocity change plus the tolerance, and the position
-  // moves within the velocity limit. A velocity that changes monotonically within an interval
-  // moves the position by between dt v_a and dt v_b, so the trapezoid is off by up to
-  // dt |v_b - v_a| / 2: at 125 Hz an arm that starts a motion within a sample is off by ten
-  // tolerances. A velocity spike (b off the line between a and c) and a position glitch (a
+  // whose rows disagree, the velocity at b lies between those at a and c, and each interval's
+  // |e| is within half the interval times its velocity change plus the tolerance. A velocity
+  // that changes monotonically within an interval moves the position by between dt v_a and
+  // dt v_b, so the trapezoid is off by up to dt |v_b - v_a| / 2: at 125 Hz an arm that starts
+  // a motion within a sample is off by ten tolerances. A velocity spike (b off the line between a and c) and a position glitch (a
   // large |e| with a small velocity change) are not explained. Before ready(), false.
   bool velocity_change_explains(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
                                 const double* dq_b, double t_c, const double* q_c, const double* dq_c,
