@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "momentum/model/dynamics.hpp"
+#include "momentum/model/momentum_batch.hpp"
 #include "momentum/model/profile.hpp"
 
 namespace {
@@ -82,6 +83,35 @@ void BM_MomentumAndBeta(benchmark::State& state) {
   label(state, f);
 }
 
+// The same per sample, MomentumBatch::kLanes samples a call; items are samples.
+void BM_MomentumAndBetaBatch(benchmark::State& state) {
+  Fixture f(static_cast<int>(state.range(0)));
+  mm::MomentumBatch batch(f.model, f.data);
+  constexpr int kLanes = mm::MomentumBatch::kLanes;
+  std::vector<Eigen::VectorXd> p(kLanes, Eigen::VectorXd(f.model.nq)), beta = p;
+  const double* q[kLanes];
+  const double* dq[kLanes];
+  double* p_out[kLanes];
+  double* beta_out[kLanes];
+  for (int k = 0; k < kLanes; ++k) {
+    p_out[k] = p[k].data();
+    beta_out[k] = beta[k].data();
+  }
+  std::size_t k = 0;
+  for (auto _ : state) {
+    for (int lane = 0; lane < kLanes; ++lane) {
+      const std::size_t i = k++ & 63;
+      q[lane] = f.qs[i].data();
+      dq[lane] = f.dqs[i].data();
+    }
+    batch.run(kLanes, q, dq, p_out, beta_out);
+    benchmark::DoNotOptimize(p_out[0]);
+    benchmark::DoNotOptimize(beta_out[0]);
+  }
+  label(state, f);
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()) * kLanes);
+}
+
 void BM_CoriolisTransposeTimesVelocity(benchmark::State& state) {
   Fixture f(static_cast<int>(state.range(0)));
   Eigen::VectorXd ct(f.model.nq);
@@ -119,6 +149,7 @@ void BM_ForwardKinematics(benchmark::State& state) {
 BENCHMARK(BM_MassMatrix)->DenseRange(0, 2);
 BENCHMARK(BM_GravityTorque)->DenseRange(0, 2);
 BENCHMARK(BM_MomentumAndBeta)->DenseRange(0, 2);
+BENCHMARK(BM_MomentumAndBetaBatch)->DenseRange(0, 2);
 BENCHMARK(BM_CoriolisTransposeTimesVelocity)->DenseRange(0, 2);
 BENCHMARK(BM_InverseDynamics)->DenseRange(0, 2);
 BENCHMARK(BM_ForwardKinematics)->DenseRange(0, 2);

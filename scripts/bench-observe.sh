@@ -6,8 +6,9 @@
 #   scripts/bench-observe.sh [BUILD_DIR] [ROWS] [--callgrind]
 # With --callgrind, also profiles 200,000 UR5 rows under valgrind --tool=callgrind (order 1
 # without friction, with and without the signal check, and order 2 with LuGre) and prints the
-# instructions per row of the parts: the momentum pass, the filters, the signal check, the
-# reader with its time-order policy.
+# instructions per row of the parts: the momentum pass (four rows at once where the CPU has
+# AVX2: model/momentum_batch.hpp), the filters, the signal check, the reader with its
+# time-order policy.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -103,10 +104,16 @@ if [[ $profile_run == --callgrind ]]; then
         n = $1; gsub(",", "", n)
         name = ""
         if ($0 ~ /StreamObserver::run\(/ && $0 !~ /lambda/) name = "StreamObserver::run (everything per row)"
-        else if ($0 ~ /MomentumObserver::step/) name = "MomentumObserver::step (dynamics + filters)"
-        else if ($0 ~ /momentum_pass</) name = "  momentum pass (p, beta; dynamics)"
+        else if ($0 ~ /MomentumObserver::step/) name = "MomentumObserver::step (filters; dynamics not computed ahead)"
+        else if ($0 ~ /momentum_pass<|MomentumBatchPass::(avx2|baseline)\(/) {
+          # The momentum pass: one row at a time, or four at once (MomentumBatch); the sum of
+          # the two, each by its largest line.
+          fn = ($0 ~ /MomentumBatchPass/) ? "batch" : "single"
+          if (n + 0 > pass_of[fn] + 0) pass_of[fn] = n
+          next
+        }
         else if ($0 ~ /ResidualObserver::step/) name = "  ResidualObserver::step (filters + friction)"
-        else if ($0 ~ /__sincos/) name = "  libm sincos (in the dynamics)"
+        else if ($0 ~ /__sincos/) name = "  libm sincos (in the momentum pass)"
         else if ($0 ~ /__expm1/) name = "  libm expm1 (LuGre)"
         else if ($0 ~ /__exp_fma|__exp1|__ieee754_exp/) name = "  libm exp (LuGre Stribeck level)"
         else if ($0 ~ /SignalCheck::(plainly_passes|learn|disagree|velocity_jumps|beyond_limits|velocity_on_trend)\(/) {
@@ -121,6 +128,8 @@ if [[ $profile_run == --callgrind ]]; then
         if (name != "" && !(name in seen)) { seen[name] = 1; printf "  %-58s %7.0f\n", name, n / rows }
       }
       END {
+        for (fn in pass_of) pass += pass_of[fn]
+        printf "  %-58s %7.0f\n", "momentum pass (p, beta; one row or four at once)", pass / rows
         for (fn in check_of) check += check_of[fn]
         printf "  %-58s %7.0f\n", "SignalCheck (one pass, learn, full tests)", check / rows
       }'

@@ -18,6 +18,7 @@
 
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
+#include "momentum/model/momentum_batch.hpp"
 #include "momentum/model/profile.hpp"
 #include "momentum/drivers/observe_stream.hpp"
 #include "momentum/observer/signal_check.hpp"
@@ -85,16 +86,25 @@ Table reference() {
   return table;
 }
 
-// The table through StreamObserver (first order, K1 = 50) with a `flagged` column.
-Table observe(const Table& in, bool check, md::ObserveStreamSummary* summary = nullptr) {
+// The table through StreamObserver (first order, K1 = 50) with a `flagged` column, read from
+// CSV or from binary (where the observer computes the dynamics of rows ahead).
+Table observe(const Table& in, bool check, md::ObserveStreamSummary* summary = nullptr, bool binary = false) {
   const fs::path dir = fs::temp_directory_path() / ("signal_check_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  write_csv((dir / "in.csv").string(), in);
+  const std::string input = (dir / (binary ? "in.bin" : "in.csv")).string();
+  if (binary) {
+    auto out = momentum::stream::Writer::open(input, {momentum::stream::Encoding::binary, false});
+    out->header(in.header);
+    for (const auto& row : in.rows) out->row(row.data());
+    out->close();
+  } else {
+    write_csv(input, in);
+  }
   md::ObserveStreamOptions options;
   options.observer.signals.enabled = check;
   options.flag_column = true;
   {
-    auto reader = momentum::stream::Reader::open((dir / "in.csv").string());
+    auto reader = momentum::stream::Reader::open(input);
     md::StreamObserver observer(*reader, ur5(), options);
     auto writer = momentum::stream::Writer::open((dir / "out.csv").string());
     const md::ObserveStreamSummary s = observer.run(*writer);
@@ -167,6 +177,38 @@ TEST(SignalCheck, GlitchesAreLeftOutAndBridged) {
               with, range);
   EXPECT_GT(without, 5.0);
   EXPECT_LT(with, 0.01 * range);
+}
+
+// The dynamics of rows computed ahead, four at a time (binary input from a file): the rows the
+// check holds, leaves out and bridges, a duplicate, a NaN row and a row back in time change
+// nothing: every output bit for bit the one of the same rows read from CSV (one at a time).
+TEST(SignalCheck, DynamicsComputedAheadChangeNothing) {
+  Table table = reference();
+  table.rows[2000][dq_col(2)] += 0.09;  // left out and bridged
+  table.rows[4000][q_col(1)] = 1e6;
+  table.rows[3000] = table.rows[2999];  // duplicate
+  table.rows[5000][dq_col(4)] = std::nan("");
+  table.rows[6000][0] = table.rows[5990][0];  // back in time
+  md::ObserveStreamSummary from_csv, from_binary;
+  const Table one_by_one = observe(table, true, &from_csv, false);
+  const Table ahead = observe(table, true, &from_binary, true);
+  EXPECT_EQ(from_csv.rows_computed_ahead, 0u);
+  if (mm::MomentumBatch(ur5(), mm::Data(ur5())).accelerated()) {
+    EXPECT_GT(from_binary.rows_computed_ahead, table.rows.size() * 9 / 10);
+  } else {
+    EXPECT_EQ(from_binary.rows_computed_ahead, 0u);
+  }
+  EXPECT_EQ(from_binary.flagged_rows, from_csv.flagged_rows);
+  EXPECT_GE(from_csv.flagged_rows, 2u);
+  EXPECT_EQ(from_binary.invalid_rows, 1u);
+  ASSERT_EQ(ahead.rows.size(), one_by_one.rows.size());
+  for (std::size_t k = 0; k < ahead.rows.size(); ++k)
+    for (std::size_t c = 0; c < ahead.header.size(); ++c) {
+      const double a = ahead.rows[k][c], b = one_by_one.rows[k][c];
+      ASSERT_TRUE(a == b || (a != a && b != b)) << "row " << k << " column " << ahead.header[c] << ": " << a << " vs " << b;
+    }
+  std::printf("%llu of %zu rows computed ahead\n", static_cast<unsigned long long>(from_binary.rows_computed_ahead),
+              table.rows.size());
 }
 
 // A real impact changes the torque, not the agreement of q and dq: the disturbance pulses of

@@ -411,3 +411,59 @@ TEST(MomentumObserver, InconsistentGapRestarts) {
   EXPECT_FALSE(options.IsValid(&why));
   EXPECT_NE(why.find("bridge_tolerance"), std::string::npos);
 }
+
+// precompute() is a hint: on the UR5 reference motion, hinted in batches of 1 to 4 samples,
+// some hints wrong (another sample's q, a velocity one ulp off), some samples skipped and one
+// stepped twice in a row, the residual is bit for bit the one without hints, and every sample
+// whose hint was right took it.
+TEST(MomentumObserver, PrecomputedDynamicsChangeNothing) {
+  const mm::Model model = mm::build_model(mm::load_profile(std::string(MOMENTUM_TEST_DATA) + "/ur5.json"));
+  const Trajectory traj = load_trajectory("ur5.traj.csv", 6);
+  mo::ObserverOptions options;
+  options.k1 = {50.0};
+  mo::MomentumObserver plain(model, options, nullptr), hinted(model, options, nullptr);
+  if (!hinted.can_precompute()) GTEST_SKIP() << "no AVX2 on this CPU: precompute() does nothing";
+  std::vector<double> r_plain(6), r_hinted(6);
+  std::vector<double> wrong_dq(6);
+  std::uint64_t expected_taken = 0;
+  std::size_t k = 0;
+  int batch = 0;
+  while (k < traj.t.size()) {
+    const int count = static_cast<int>(std::min<std::size_t>(1 + batch % 4, traj.t.size() - k));
+    const double* q[4];
+    const double* dq[4];
+    for (int lane = 0; lane < count; ++lane) {
+      q[lane] = traj.q[k + lane].data();
+      dq[lane] = traj.dq[k + lane].data();
+    }
+    // Every fifth batch: lane 1 is another sample's q, lane 2 a velocity one ulp off.
+    const bool wrong = batch % 5 == 0 && count > 2;
+    // Every seventh batch leaves its second sample out (a row the signal check left out).
+    const bool skip_second = batch % 7 == 3 && count > 1;
+    if (wrong) {
+      q[1] = traj.q[(k + 100) % traj.t.size()].data();
+      wrong_dq = traj.dq[k + 2];
+      wrong_dq[3] = std::nextafter(wrong_dq[3], 10.0);
+      dq[2] = wrong_dq.data();
+    }
+    hinted.precompute(count, q, dq);
+    const int hinted_now = hinted.precomputed();
+    EXPECT_EQ(hinted_now, count >= 2 ? count : 0);
+    // Taken: every sample of a batch of two or more up to the first wrong hint, which drops
+    // the rest; a sample left out is passed over.
+    if (count >= 2) expected_taken += wrong ? 1 : count - (skip_second ? 1 : 0);
+    for (int lane = 0; lane < count; ++lane, ++k) {
+      if (skip_second && lane == 1) continue;
+      const auto s_plain = plain.step(traj.t[k], traj.q[k].data(), traj.dq[k].data(), traj.tau_m[k].data(),
+                                      r_plain.data(), nullptr, nullptr);
+      const auto s_hinted = hinted.step(traj.t[k], traj.q[k].data(), traj.dq[k].data(), traj.tau_m[k].data(),
+                                        r_hinted.data(), nullptr, nullptr);
+      ASSERT_EQ(s_plain, s_hinted) << "sample " << k;
+      for (int j = 0; j < 6; ++j) ASSERT_EQ(r_plain[j], r_hinted[j]) << "sample " << k << " joint " << j + 1;
+    }
+    ++batch;
+  }
+  EXPECT_EQ(hinted.precomputed_taken(), expected_taken);
+  std::printf("%llu of %zu samples took a precomputed result\n",
+              static_cast<unsigned long long>(hinted.precomputed_taken()), traj.t.size());
+}

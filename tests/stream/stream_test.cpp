@@ -529,3 +529,89 @@ TEST(Stream, SeparatorIsDetectedAndQuotedFieldsRead) {
   auto named = ms::Reader::open(vendor, options);
   EXPECT_EQ(read_all(*named), (std::vector<std::vector<double>>{{1, 3}, {4, 6}}));
 }
+
+// Reader::peek: the rows after the one last returned that are already read, as next() returns
+// them, without consuming them; never past a comment record or a partial record; nothing from
+// CSV, or while the time-order policy holds rows.
+TEST(Stream, PeekShowsTheRowsAlreadyReadWithoutTakingThem) {
+  CapturedWarnings warnings;
+  const std::string bin = temp_path("peek.bin");
+  {
+    auto out = ms::Writer::open(bin, {ms::Encoding::binary, false});
+    out->header({"t", "q1"});
+    for (int k = 0; k < 6; ++k) {
+      // Row 3 goes back in time: the policy holds row 2 until it has seen row 4.
+      const double row[2] = {k == 3 ? 0.5 : 0.01 * k, 10.0 + k};
+      out->row(row);
+      if (k == 4) out->comment("between rows 4 and 5");
+    }
+    out->close();
+  }
+  // Without the time-order policy: every row as written.
+  {
+    ms::ReaderOptions options;
+    options.time_order = false;
+    auto in = ms::Reader::open(bin, options);
+    double ahead[3 * 2];
+    ASSERT_NE(in->next(), nullptr);  // row 0
+    ASSERT_EQ(in->peek(ahead, 3), 3u);
+    EXPECT_EQ(ahead[0], 0.01);
+    EXPECT_EQ(ahead[1], 11.0);
+    EXPECT_EQ(ahead[4], 0.5);
+    EXPECT_EQ(ahead[5], 13.0);
+    EXPECT_EQ(in->peek(ahead, 1), 1u);  // no more than asked
+    const double* row = in->next();      // peeking took nothing
+    ASSERT_NE(row, nullptr);
+    EXPECT_EQ(row[1], 11.0);
+    ASSERT_NE(in->next(), nullptr);  // row 2
+    ASSERT_NE(in->next(), nullptr);  // row 3
+    EXPECT_EQ(in->peek(ahead, 3), 1u);  // row 4, then the comment record
+    EXPECT_EQ(ahead[1], 14.0);
+    ASSERT_NE(in->next(), nullptr);  // row 4
+    EXPECT_EQ(in->peek(ahead, 3), 0u);  // the comment record comes first
+    ASSERT_NE(in->next(), nullptr);  // row 5
+    EXPECT_EQ(in->peek(ahead, 3), 0u);
+    EXPECT_EQ(in->next(), nullptr);
+    EXPECT_EQ(in->peek(ahead, 3), 0u);
+  }
+  // With it: nothing while it holds rows (the first two, until it knows the time line); row 3,
+  // shown after row 2, is then dropped for its time: a hint, not a promise.
+  {
+    CapturedWarnings dropped;
+    auto in = ms::Reader::open(bin);
+    double ahead[3 * 2];
+    std::vector<std::size_t> shown;
+    std::vector<double> q;
+    while (const double* row = in->next()) {
+      q.push_back(row[1]);
+      shown.push_back(in->peek(ahead, 3));
+      if (row[1] == 12.0) {
+        EXPECT_EQ(ahead[1], 13.0);
+        EXPECT_EQ(ahead[3], 14.0);
+      }
+    }
+    EXPECT_EQ(q, (std::vector<double>{10, 11, 12, 14, 15}));
+    EXPECT_EQ(shown, (std::vector<std::size_t>{0, 0, 2, 0, 0}));
+  }
+  // A partial record at the end is not shown.
+  {
+    const std::string bytes = read_file(bin);
+    const std::string cut = temp_path("peek_cut.bin");
+    write_file(cut, bytes.substr(0, bytes.size() - 3));
+    ms::ReaderOptions options;
+    options.time_order = false;
+    auto in = ms::Reader::open(cut, options);
+    double ahead[3 * 2];
+    for (int k = 0; k < 5; ++k) ASSERT_NE(in->next(), nullptr);
+    EXPECT_EQ(in->peek(ahead, 3), 0u);  // the comment, then 13 of 16 bytes
+  }
+  // CSV: nothing.
+  {
+    const std::string csv = temp_path("peek.csv");
+    write_file(csv, "t,q1\n0,1\n0.01,2\n0.02,3\n");
+    auto in = ms::Reader::open(csv);
+    double ahead[3 * 2];
+    ASSERT_NE(in->next(), nullptr);
+    EXPECT_EQ(in->peek(ahead, 3), 0u);
+  }
+}

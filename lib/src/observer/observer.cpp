@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <set>
@@ -207,7 +208,48 @@ MomentumObserver::MomentumObserver(const model::Model& model, const ObserverOpti
       dq_(model.nq),
       p_(model.nq),
       beta_(model.nq),
-      u_(model.nq) {}
+      u_(model.nq),
+      batch_(model, data_) {
+  const auto values = static_cast<std::size_t>(model::MomentumBatch::kLanes * model.nq);
+  for (auto* v : {&ahead_q_, &ahead_dq_, &ahead_p_, &ahead_beta_}) v->assign(values, 0.0);
+}
+
+void MomentumObserver::precompute(int count, const double* const q[], const double* const dq[]) {
+  count = std::min(count, model::MomentumBatch::kLanes);
+  if (count < 2 || !batch_.accelerated()) return;
+  const int n = model_.nq;
+  const double* lane_q[model::MomentumBatch::kLanes];
+  const double* lane_dq[model::MomentumBatch::kLanes];
+  double* lane_p[model::MomentumBatch::kLanes];
+  double* lane_beta[model::MomentumBatch::kLanes];
+  for (int k = 0; k < count; ++k) {
+    // Kept: step() compares the samples it gets with these.
+    std::copy(q[k], q[k] + n, &ahead_q_[k * n]);
+    std::copy(dq[k], dq[k] + n, &ahead_dq_[k * n]);
+    lane_q[k] = &ahead_q_[k * n];
+    lane_dq[k] = &ahead_dq_[k * n];
+    lane_p[k] = &ahead_p_[k * n];
+    lane_beta[k] = &ahead_beta_[k * n];
+  }
+  batch_.run(count, lane_q, lane_dq, lane_p, lane_beta);
+  ahead_next_ = 0;
+  ahead_count_ = count;
+}
+
+bool MomentumObserver::take_precomputed(const double* q, const double* dq) {
+  const int n = model_.nq;
+  const auto bytes = static_cast<std::size_t>(n) * sizeof(double);
+  for (int k = ahead_next_; k < ahead_count_; ++k) {
+    if (std::memcmp(q, &ahead_q_[k * n], bytes) != 0 || std::memcmp(dq, &ahead_dq_[k * n], bytes) != 0) continue;
+    std::copy(&ahead_p_[k * n], &ahead_p_[k * n] + n, p_.data());
+    std::copy(&ahead_beta_[k * n], &ahead_beta_[k * n] + n, beta_.data());
+    ahead_next_ = k + 1;
+    ++ahead_taken_;
+    return true;
+  }
+  ahead_next_ = ahead_count_;
+  return false;
+}
 
 void MomentumObserver::record_interval(double dt, bool gap) {
   step_median_.push(dt);
@@ -286,7 +328,7 @@ SampleStatus MomentumObserver::step(double t, const double* q, const double* dq,
     q_[j] = q[j];
     dq_[j] = dq[j];
   }
-  model::momentum_and_beta(model_, data_, q_, dq_, p_, beta_);
+  if (precomputed() == 0 || !take_precomputed(q, dq)) model::momentum_and_beta(model_, data_, q_, dq_, p_, beta_);
   for (int j = 0; j < n; ++j) u_[j] = tau_m[j] - beta_[j];
   residual_.step(dt, p_.data(), u_.data(), dq, r, tau_f, mu);
   return status;

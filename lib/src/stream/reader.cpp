@@ -138,6 +138,11 @@ const double* Reader::next() {
   }
 }
 
+std::size_t Reader::peek(double* rows, std::size_t max) {
+  if (ended_ || !mapped_from_.empty() || (time_order_ && !time_order_->idle())) return 0;
+  return peek_rows(rows, max);
+}
+
 void Reader::start_renames(const std::vector<ColumnRename>& renames) {
   if (renames.empty()) return;
   const RenamedHeader renamed = apply_renames(columns_, renames, name_);
@@ -660,6 +665,18 @@ class BinaryReader final : public InputReader {
       ++rows_read_;
       return row_.data();
     }
+  }
+
+  std::size_t peek_rows(double* rows, std::size_t max) const override {
+    std::size_t count = 0;
+    for (const char* at = in_->data(); count < max && in_->available() >= (count + 1) * record_; at += record_) {
+      std::uint64_t first;
+      std::memcpy(&first, at, sizeof first);
+      if (first == kCommentRecordBits) break;
+      std::memcpy(rows + count * columns_.size(), at, record_);
+      ++count;
+    }
+    return count;
   }
 
   std::string location(std::uint64_t position) const override {

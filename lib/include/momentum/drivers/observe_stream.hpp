@@ -98,6 +98,9 @@ struct ObserveStreamSummary {
   std::uint64_t confirmed_rows = 0;     // suspect at first, then confirmed by the rows after
   std::uint64_t unresolved_rows = 0;    // suspect for longer than a bridge: taken as they are
   std::vector<double> flagged_times;    // t of the first row of the first 20 stretches, s
+  // Rows whose dynamics were computed ahead with the rows after them
+  // (MomentumObserver::precompute): the binary input from a file, where the CPU has AVX2.
+  std::uint64_t rows_computed_ahead = 0;
 };
 
 // The stream's columns bound to an observer. Construct it before opening the output, so that

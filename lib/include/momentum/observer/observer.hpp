@@ -26,6 +26,7 @@
 #include "momentum/friction/friction.hpp"
 #include "momentum/model/dynamics.hpp"
 #include "momentum/model/model.hpp"
+#include "momentum/model/momentum_batch.hpp"
 #include "momentum/observer/filter.hpp"
 #include "momentum/observer/signal_check.hpp"
 
@@ -155,6 +156,20 @@ class MomentumObserver {
   SampleStatus step(double t, const double* q, const double* dq, const double* tau_m, double* r,
                     double* tau_f, double* mu);
 
+  // Computes p and beta ahead, together, for up to model::MomentumBatch::kLanes samples the
+  // caller expects to step next (rows it has already read), where the CPU makes that cheaper
+  // (model::MomentumBatch::accelerated()); otherwise, or for fewer than two samples, does
+  // nothing. A hint: step() takes a precomputed result only for a sample whose q and dq are
+  // bit for bit those given here, and the result is bit for bit what it would compute, so the
+  // outputs are the same either way. q[k] and dq[k] point at sample k's nq values.
+  void precompute(int count, const double* const q[], const double* const dq[]);
+  // Whether precompute() does anything here (model::MomentumBatch::accelerated()).
+  bool can_precompute() const { return batch_.accelerated(); }
+  // Samples precomputed that step() has neither taken nor passed over.
+  int precomputed() const { return ahead_count_ - ahead_next_; }
+  // Samples whose p and beta step() took from precompute().
+  std::uint64_t precomputed_taken() const { return ahead_taken_; }
+
   // Forgets the time line after a clock step back (stream::TimeMark::clock_step): the next
   // sample starts the observer again (SampleStatus::started, r = 0), keeping the median step.
   void restart_clock() {
@@ -207,6 +222,15 @@ class MomentumObserver {
   static constexpr double kLostSamples = 1.5;
   core::RunningMedian<16> step_median_;
   int since_median_ = 0;
+  // Into p_ and beta_ the precomputed result for (q, dq), if one is pending; false otherwise,
+  // and then the pending ones are dropped (the stream has gone another way).
+  bool take_precomputed(const double* q, const double* dq);
+  model::MomentumBatch batch_;
+  // Precomputed samples (precompute()), kLanes x nq values each, and the next one step() may
+  // take.
+  std::vector<double> ahead_q_, ahead_dq_, ahead_p_, ahead_beta_;
+  int ahead_next_ = 0, ahead_count_ = 0;
+  std::uint64_t ahead_taken_ = 0;
 };
 
 }  // namespace momentum::observer

@@ -97,6 +97,14 @@ class Reader {
   // next row has been read (constant memory: at most three rows are held).
   const double* next();
 
+  // Up to `max` rows after the row last returned that are already in memory, copied into
+  // `rows` (max x columns().size() values), as next() would return them if none is skipped or
+  // held: a hint for work a caller can do ahead (the observer's dynamics, several rows at
+  // once), never a promise. Reads nothing, so never blocks a live stream. Returns the count: 0
+  // for CSV and MCAP input, with renames, and while the time-order policy holds rows; binary
+  // input stops at a comment record or a partial record.
+  std::size_t peek(double* rows, std::size_t max);
+
   // Reads nothing more: the rows the time-order policy still holds are decided as at the end
   // of input and returned by the next calls of next(), then nullptr. For a tool that stops
   // early (a signal), so that no row it already read is lost.
@@ -164,6 +172,13 @@ class Reader {
   void skip_bad(std::string_view kind, std::string_view message);
   // The next parsed row (raw_position_ set), or nullptr at end of input.
   virtual const double* read_row() = 0;
+  // Up to `max` whole rows that read_row() would return next without reading, as Reader::peek
+  // (before renames); changes nothing.
+  virtual std::size_t peek_rows(double* rows, std::size_t max) const {
+    (void)rows;
+    (void)max;
+    return 0;
+  }
 
  private:
   // Renames (ReaderOptions::renames): the input's values at `mapped_from_` times

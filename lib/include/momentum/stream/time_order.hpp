@@ -89,6 +89,8 @@ class TimeOrder {
   const Row* pop();
 
   const Summary& summary() const { return summary_; }
+  // Whether no row is held or waiting for pop(): the next row that fits is the next returned.
+  bool idle() const { return held_.empty() && ready_next_ >= ready_.size(); }
   // Running median of the last 16 steps between kept rows, s; 0 before the first step.
   double median_dt() const { return median_dt_; }
 
