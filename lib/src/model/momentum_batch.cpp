@@ -1,13 +1,17 @@
+// The helpers here and in sin_cos_kernel.hpp take and return 32-byte vectors; GCC warns that
+// their calling convention differs with AVX. They are internal to this file and inlined: no
+// call crosses a boundary.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
 #include "momentum/model/momentum_batch.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 #include <string>
 
-// The helpers below take and return 32-byte vectors; GCC warns that their calling convention
-// differs with AVX. They are internal to this file and inlined: no call crosses a boundary.
-#pragma GCC diagnostic ignored "-Wpsabi"
+#include "sin_cos_kernel.hpp"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define MOMENTUM_LANES_AVX2 1
@@ -27,6 +31,7 @@ typedef double Lanes __attribute__((vector_size(8 * kLanes)));
 // Every helper is inlined into the pass it serves, so that it is compiled for that pass's
 // instruction set (a call would pass the vectors through memory).
 #define MOMENTUM_LANES_INLINE [[gnu::always_inline]] inline
+#define MOMENTUM_LANES_LAMBDA __attribute__((always_inline))
 
 // Written out element by element: `Lanes{} + x` costs an add, and GCC then spilled the pass's
 // vectors (585 against 293 ns a row without AVX).
@@ -42,6 +47,18 @@ MOMENTUM_LANES_INLINE void store(double* x, Lanes v) { std::memcpy(x, &v, sizeof
 static_assert(kLanes == 4, "broadcast and lane_values list the lanes");
 MOMENTUM_LANES_INLINE Lanes lane_values(const double* const x[], int i) {
   return Lanes{x[0][i], x[1][i], x[2][i], x[3][i]};
+}
+
+typedef std::uint64_t LaneBits __attribute__((vector_size(8 * kLanes)));
+
+// As detail::sin_cos, lane by lane: the same kernel, and libm beyond its range.
+MOMENTUM_LANES_INLINE void sin_cos(Lanes x, Lanes* sin_x, Lanes* cos_x) {
+  detail::sin_cos_reduced<Lanes, LaneBits>(
+      x, sin_x, cos_x, [](Lanes v) MOMENTUM_LANES_LAMBDA { return reinterpret_cast<LaneBits>(v); },
+      [](LaneBits mask, Lanes a, Lanes b) MOMENTUM_LANES_LAMBDA { return mask != 0 ? a : b; });
+  for (int k = 0; k < kLanes; ++k) {
+    if (!(std::fabs(x[k]) < detail::kSinCosRange)) detail::sin_cos(x[k], &(*sin_x)[k], &(*cos_x)[k]);
+  }
 }
 
 struct Vector3 {
@@ -125,10 +142,7 @@ struct MomentumBatchPass {
       const Lanes dqi = lane_values(lane_dq, i);
       if (b.revolute_[i]) {
         Lanes s, c;
-        for (int k = 0; k < kLanes; ++k) {
-          s[k] = std::sin(qi[k]);
-          c[k] = std::cos(qi[k]);
-        }
+        sin_cos(qi, &s, &c);
         for (int row = 0; row < 3; ++row) {
           e[3 * row] = c * e0[3 * row] + s * e0[3 * row + 1];
           e[3 * row + 1] = c * e0[3 * row + 1] - s * e0[3 * row];

@@ -52,6 +52,22 @@ inline Eigen::Matrix<S, 3, 1> cross(const Eigen::Matrix<S, 3, 1>& a, const Eigen
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 
+// sin and cos of x together. For double: within 1 ulp of the true values, the same bits in the
+// one-sample and the batched momentum pass (sin_cos.cpp, MomentumBatch); other scalars (Jet):
+// their own sin and cos.
+void sin_cos(double x, double* sin_x, double* cos_x);
+// Beyond this |x| (2^19 rad), and for inf and NaN, sin_cos(double) returns libm's values: up to
+// it fn (pi/2) rounds exactly in its reduction, and three 33-bit steps of pi/2 keep the
+// remainder within an ulp even for the x nearest to a multiple of pi/2.
+inline constexpr double kSinCosRange = 524288.0;
+template <class S>
+inline void sin_cos(const S& x, S* sin_x, S* cos_x) {
+  using std::cos;
+  using std::sin;
+  *sin_x = sin(x);
+  *cos_x = cos(x);
+}
+
 inline void check_size(const char* function, const char* what, Eigen::Index got,
                        Eigen::Index want) {
   if (got != want) {
@@ -319,8 +335,6 @@ namespace detail {
 template <class S>
 void momentum_pass(const Model& model, DataTpl<S>& data, InVector<S> q, InVector<S> dq,
                    VectorX<S>* p, VectorX<S>* ct, VectorX<S>* beta) {
-  using std::cos;
-  using std::sin;
   using Vector3 = typename DataTpl<S>::Vector3;
   using Matrix3 = typename DataTpl<S>::Matrix3;
   check_q("momentum_and_beta", model, data, q);
@@ -341,8 +355,8 @@ void momentum_pass(const Model& model, DataTpl<S>& data, InVector<S> q, InVector
     Vector3 r = data.aligned_translation[i];
     const bool revolute = data.revolute[i] != 0;
     if (revolute) {
-      const S s = sin(q[i]);
-      const S c = cos(q[i]);
+      S s, c;
+      sin_cos(S(q[i]), &s, &c);
       e.col(0) = c * e0.col(0) + s * e0.col(1);
       e.col(1) = c * e0.col(1) - s * e0.col(0);
       e.col(2) = e0.col(2);
