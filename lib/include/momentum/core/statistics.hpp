@@ -117,7 +117,10 @@ void select_ranks(std::uint64_t* keys, int n, std::uint64_t from, std::uint64_t 
 // too far between such updates for a neighbourhood search). With a NaN in the window it
 // selects with nth_element over the window. The median is the same value, bit for bit, either
 // way: the middle element of the sorted window, or the mean of the two middle ones.
-template <int N>
+//
+// With KeepsBound false, a window that is only ever update()d (the signal check's torque
+// curvature) skips the bound's bookkeeping: a third of a push.
+template <int N, bool KeepsBound = true>
 class RunningMedian {
  public:
   static_assert(N > 0);
@@ -129,12 +132,12 @@ class RunningMedian {
 
   void push(double value) {
     if (count_ == N) {
-      below_ -= window_[next_] < bound_;
+      if constexpr (KeepsBound) below_ -= window_[next_] < bound_;
     } else {
       ++count_;
     }
     window_[next_] = value;
-    below_ += value < bound_;
+    if constexpr (KeepsBound) below_ += value < bound_;
     if (++next_ == N) next_ = 0;
     ++pushed_;
   }
@@ -160,20 +163,28 @@ class RunningMedian {
       if (low != high) lower = *std::max_element(sorted, sorted + high);
     }
     median_ = low == high ? upper : 0.5 * (upper + lower);
-    // Of the lower middle value: the mean of the two middle ones may lie far above it.
-    bound_ = kBoundFraction * lower;
-    int below = 0;
-    for (int k = 0; k < count_; ++k) below += window_[k] < bound_;
-    below_ = below;
+    if constexpr (KeepsBound) {
+      // Of the lower middle value: the mean of the two middle ones may lie far above it.
+      bound_ = kBoundFraction * lower;
+      int below = 0;
+      for (int k = 0; k < count_; ++k) below += window_[k] < bound_;
+      below_ = below;
+    }
     return median_;
   }
   double value() const { return median_; }  // as of the last update()
   // At most the window's median now while bound_holds() (for values >= 0; kBoundFraction times
   // the lower middle value last computed).
-  double lower_bound() const { return bound_; }
+  double lower_bound() const {
+    static_assert(KeepsBound);
+    return bound_;
+  }
   // Whether the lower middle value of the window is still at least lower_bound(), so the
   // median is.
-  bool bound_holds() const { return below_ <= (count_ - 1) / 2; }
+  bool bound_holds() const {
+    static_assert(KeepsBound);
+    return below_ <= (count_ - 1) / 2;
+  }
   bool full() const { return count_ == N; }
   int pushes_since_update() const { return pushed_; }
 

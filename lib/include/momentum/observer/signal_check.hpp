@@ -151,7 +151,7 @@ class SignalCheck {
     core::RunningMedian<kWindow> abs_error;
     // |d2| of the velocity and of the motor torque over pairs of consecutive intervals learnt.
     core::RunningMedian<kWindow> abs_velocity_curvature;
-    core::RunningMedian<kWindow> abs_torque_curvature;
+    core::RunningMedian<kWindow, false> abs_torque_curvature;  // judged on its median only
     double last_tau_step = 0;  // Nm
     // Quantisation steps: the smallest nonzero second difference seen (of consecutive
     // intervals), which is a multiple of the step for a quantised signal and as small as the
