@@ -106,3 +106,27 @@ TEST(Text, WordsSplitAtBlanksWithoutAllocating) {
   EXPECT_EQ(Words("").next(), "");
   EXPECT_EQ(Words(" \t ").next(), "");
 }
+
+// all_finite against std::isfinite on every value: one value that is not finite, at any place
+// of any of the three arrays, makes it false; the largest, smallest and subnormal finite values
+// do not.
+TEST(Number, AllFiniteIsEveryValueFinite) {
+  using momentum::core::all_finite;
+  const double kInf = std::numeric_limits<double>::infinity();
+  const double kNan = std::numeric_limits<double>::quiet_NaN();
+  const double kMax = std::numeric_limits<double>::max();
+  double a[3] = {kMax, -kMax, 5e-324}, b[3] = {0.0, -0.0, 1e-310}, c[3] = {1.0, -2.5, 1e308};
+  EXPECT_TRUE(all_finite(a, b, c, 3));
+  EXPECT_TRUE(all_finite(a, b, c, 0));
+  for (double bad : {kInf, -kInf, kNan, -kNan}) {
+    for (double* array : {a, b, c}) {
+      for (int k = 0; k < 3; ++k) {
+        const double kept = array[k];
+        array[k] = bad;
+        EXPECT_FALSE(all_finite(a, b, c, 3)) << bad << " at " << k;
+        EXPECT_EQ(all_finite(a, b, c, k), true) << "only the first " << k << " values are read";
+        array[k] = kept;
+      }
+    }
+  }
+}

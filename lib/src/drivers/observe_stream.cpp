@@ -363,8 +363,7 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
   // One row through the signal check: written now, or held back until a later row decides.
   auto check_row = [&](const double* row, bool duplicate) {
     unpack(row);
-    bool finite = std::isfinite(t);
-    for (int j = 0; j < n; ++j) finite = finite && std::isfinite(q[j]) && std::isfinite(dq[j]) && std::isfinite(tau[j]);
+    const bool finite = std::isfinite(t) && core::all_finite(q.data(), dq.data(), tau.data(), n);
     const double t_reference = held_count ? held[held_count - 1].values[t_index_] : good_t;
     if (finite && held_count && !(t > t_reference)) {
       // A time fault after a held row (its duplicate, say): skipped as the observer skips one

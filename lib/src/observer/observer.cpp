@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "momentum/core/error.hpp"
+#include "momentum/core/number.hpp"
 
 namespace momentum::observer {
 namespace {
@@ -278,8 +279,7 @@ SampleStatus MomentumObserver::step(double t, const double* q, const double* dq,
                                     const double* tau_m, double* r, double* tau_f, double* mu) {
   const int n = model_.nq;
   if (have_time_ && std::isfinite(t) && !(t > t_previous_)) return SampleStatus::time_not_increasing;
-  bool finite = std::isfinite(t);
-  for (int j = 0; j < n; ++j) finite = finite && std::isfinite(q[j]) && std::isfinite(dq[j]) && std::isfinite(tau_m[j]);
+  const bool finite = std::isfinite(t) && core::all_finite(q, dq, tau_m, n);
   if (!finite) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     std::fill(r, r + n, nan);
