@@ -210,10 +210,10 @@ struct MomentumBatchPass {
         gi = -m * g.z;
       }
       const Lanes momentum = pi + b.rotor_[i] * load(&b.dq_[at]);
-      const Lanes b = gi - cti;
+      const Lanes beta_lanes = gi - cti;
       for (int k = 0; k < count; ++k) {
         p[k][i] = momentum[k];
-        beta[k][i] = b[k];
+        beta[k][i] = beta_lanes[k];
       }
     }
   }

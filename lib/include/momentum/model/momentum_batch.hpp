@@ -1,7 +1,8 @@
 // The momentum observer's dynamics, p = M(q) dq and beta = g(q) - C(q,dq)^T dq, for several
 // samples at once: one sample per lane of a SIMD vector, so a stream read from a file costs
-// about half the time per row of momentum_and_beta (tests/data/ur5.json: 110 against 225 ns a
-// row, bench/model_bench.cpp).
+// less than half the time per row of momentum_and_beta (tests/data/ur5.json with AVX2: 94
+// against 222 ns a row, bench/model_bench.cpp; eight lanes with AVX-512 gave 86 ns, too little
+// to show in mo-observe's time).
 //
 // The arithmetic is momentum_and_beta's (dynamics_impl.hpp, momentum_pass), operation for
 // operation and in the same order, so every lane's result is bit for bit the one
@@ -18,8 +19,8 @@ namespace momentum::model {
 
 class MomentumBatch {
  public:
-  // Samples computed together. 4: two SSE2 registers per value on x86-64's baseline; 2 lanes
-  // gain a third less, 8 lose to register spills.
+  // Samples computed together: one AVX2 register per value (two SSE2 registers on x86-64's
+  // baseline). Two lanes gained a third less.
   static constexpr int kLanes = 4;
 
   // Takes the model's constants from `data` (a Data made from `model`); keeps no reference to
