@@ -57,7 +57,11 @@ MOMENTUM_LANES_INLINE void sin_cos(Lanes x, Lanes* sin_x, Lanes* cos_x) {
       x, sin_x, cos_x, [](Lanes v) MOMENTUM_LANES_LAMBDA { return reinterpret_cast<LaneBits>(v); },
       [](LaneBits mask, Lanes a, Lanes b) MOMENTUM_LANES_LAMBDA { return mask != 0 ? a : b; });
   for (int k = 0; k < kLanes; ++k) {
-    if (!(std::fabs(x[k]) < detail::kSinCosRange)) detail::sin_cos(x[k], &(*sin_x)[k], &(*cos_x)[k]);
+    if (std::fabs(x[k]) < detail::kSinCosRange) continue;
+    double s, c;  // (a vector's element has no address in Clang)
+    detail::sin_cos(x[k], &s, &c);
+    (*sin_x)[k] = s;
+    (*cos_x)[k] = c;
   }
 }
 
