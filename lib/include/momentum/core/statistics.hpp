@@ -119,8 +119,9 @@ void select_ranks(std::uint64_t* keys, int n, std::uint64_t from, std::uint64_t 
 // selects with nth_element over the window. The median is the same value, bit for bit, either
 // way: the middle element of the sorted window, or the mean of the two middle ones.
 //
-// With KeepsBound false, a window that is only ever update()d (the signal check's torque
-// curvature) skips the bound's bookkeeping: a third of a push.
+// With KeepsBound false, a window whose median alone is read (the signal check's torque
+// curvature, the observer's time step) skips the bound's bookkeeping: the two comparisons a
+// push makes against it, and the count update() makes.
 template <int N, bool KeepsBound = true>
 class RunningMedian {
  public:
