@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -146,6 +148,62 @@ TEST(RunningMedian, LowerBoundHoldsBetweenUpdates) {
   ones.push(0.5);
   EXPECT_FALSE(ones.bound_holds());
   EXPECT_EQ(ones.update(), 0.75);  // the mean of 0.5 and 1
+}
+
+// A bank of windows pushed together is K RunningMedians pushed alike: after every push each
+// window's bound_holds() and pushes since its update are the same, and an update gives the same
+// median and lower bound, bit for bit; windows updated on their own schedules (as the signal
+// check updates a joint's scale when its bound fails), on values of other scales and kinds
+// (ties, zeros, a NaN now and then), while the ring fills and once it slides.
+TEST(RunningMedianBank, IsRunningMedianPerWindowBitForBit) {
+  constexpr int kN = 128, kWindows = 7;
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_int_distribution<int> few(0, 5);
+  std::uniform_int_distribution<int> gap(1, 300);
+  RunningMedianBank<kN> bank(kWindows);
+  std::vector<RunningMedian<kN>> single(kWindows);
+  std::vector<int> until_update(kWindows, 1);
+  std::vector<double> values(kWindows);
+  EXPECT_EQ(bank.windows(), kWindows);
+  EXPECT_EQ(bank.update(3), 0);  // empty
+  single[3].update();
+  int updates = 0, bound_failures = 0;
+  for (int push = 0; push < 30000; ++push) {
+    for (int k = 0; k < kWindows; ++k) {
+      const double scale = k == 0 ? 1.0 : std::exp(3.0 * std::sin(1e-3 * push + k));  // drifts by decades
+      double v = std::fabs(scale * normal(rng));
+      if (k == 1) v = 1e-4 * few(rng);              // quantised, many ties and zeros
+      if (k == 2 && push % 4999 == 100) v = std::nan("");
+      values[static_cast<std::size_t>(k)] = v;
+      single[static_cast<std::size_t>(k)].push(v);
+    }
+    bank.push(values.data());
+    ASSERT_EQ(bank.full(), single[0].full());
+    for (int k = 0; k < kWindows; ++k) {
+      RunningMedian<kN>& reference = single[static_cast<std::size_t>(k)];
+      ASSERT_EQ(bank.bound_holds(k), reference.bound_holds()) << "window " << k << ", push " << push;
+      ASSERT_EQ(bank.pushes_since_update(k), reference.pushes_since_update());
+      const bool fails = !bank.bound_holds(k);
+      bound_failures += fails;
+      if (--until_update[static_cast<std::size_t>(k)] > 0 && !fails) continue;
+      until_update[static_cast<std::size_t>(k)] = k % 2 ? gap(rng) : 1 + few(rng);
+      const double expected = reference.update();
+      const double got = bank.update(k);
+      ++updates;
+      if (std::isnan(expected)) {
+        ASSERT_TRUE(std::isnan(got));
+        continue;
+      }
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(got), std::bit_cast<std::uint64_t>(expected)) << "window " << k;
+      ASSERT_EQ(bank.value(k), expected);
+      ASSERT_EQ(bank.lower_bound(k), reference.lower_bound());
+      ASSERT_TRUE(bank.bound_holds(k));
+      ASSERT_EQ(bank.pushes_since_update(k), 0);
+    }
+  }
+  EXPECT_GT(updates, 30000);
+  EXPECT_GT(bound_failures, 100);  // the bound's failures were exercised, not only the schedule
 }
 
 // The sorted window gives RunningMedian's median bit for bit after every push: while the window

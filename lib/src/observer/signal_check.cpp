@@ -46,7 +46,15 @@ bool SignalCheckOptions::IsValid(std::string* why) const {
 }
 
 SignalCheck::SignalCheck(const model::Model& model, const SignalCheckOptions& options)
-    : model_(model), data_(model), mass_(model.nq, model.nq), options_(options), joints_(static_cast<std::size_t>(model.nq)) {
+    : model_(model),
+      data_(model),
+      mass_(model.nq, model.nq),
+      options_(options),
+      joints_(static_cast<std::size_t>(model.nq)),
+      abs_error_(model.nq),
+      abs_velocity_curvature_(model.nq),
+      abs_torque_curvature_(model.nq),
+      learnt_(3 * static_cast<std::size_t>(model.nq)) {
   std::string why;
   if (!options.IsValid(&why)) throw Error(why);
   const double f = options.limit_factor;
@@ -94,8 +102,7 @@ int SignalCheck::beyond_limits(const double* q, const double* dq, const double* 
 }
 
 double SignalCheck::tolerance(int j, double interval, double typical_dt) {
-  core::RunningMedian<kWindow>& scale = joints_[static_cast<std::size_t>(j)].abs_error;
-  if (scale.pushes_since_update() > 0) scale.update();
+  if (abs_error_.pushes_since_update(j) > 0) abs_error_.update(j);
   return tolerance_as_computed(j, interval, typical_dt);
 }
 
@@ -109,19 +116,19 @@ double SignalCheck::tolerance_as_computed(int j, double interval, double typical
                                  interval * interval * J.dq_quantum * J.dq_quantum / 24);
   // Over a longer interval (rows left out in between), velocity noise and lag add up.
   const double stretch = typical_dt > 0 ? std::max(1.0, interval / typical_dt) : 1.0;
-  return options_.sigmas * std::max(kMadToSigma * J.abs_error.value() * stretch, floor);
+  return options_.sigmas * std::max(kMadToSigma * abs_error_.value(j) * stretch, floor);
 }
 
 double SignalCheck::velocity_tolerance(int j) const {
   if (curvatures_ < static_cast<std::uint64_t>(kWarmUp)) return kInf;
   const Joint& J = joints_[static_cast<std::size_t>(j)];
-  return options_.sigmas *
-         std::max(kMadToSigma * J.abs_velocity_curvature.value(), velocity_quantisation_noise(J.dq_quantum));
+  return options_.sigmas * std::max(kMadToSigma * abs_velocity_curvature_.value(j),
+                                    velocity_quantisation_noise(J.dq_quantum));
 }
 
-inline double SignalCheck::velocity_tolerance_on_bound(const Joint& J) const {
+inline double SignalCheck::velocity_tolerance_on_bound(const Joint& J, std::size_t j) const {
   return options_.sigmas *
-         std::max(kMadToSigma * J.abs_velocity_curvature.lower_bound(), velocity_quantisation_noise(J.dq_quantum));
+         std::max(kMadToSigma * abs_velocity_curvature_.lower_bound(static_cast<int>(j)), velocity_quantisation_noise(J.dq_quantum));
 }
 
 namespace {
@@ -146,7 +153,7 @@ struct Extension {
 
 double SignalCheck::torque_tolerance(int j) const {
   if (curvatures_ < static_cast<std::uint64_t>(kWarmUp)) return kInf;
-  return options_.sigmas * kMadToSigma * joints_[static_cast<std::size_t>(j)].abs_torque_curvature.value();
+  return options_.sigmas * kMadToSigma * abs_torque_curvature_.value(j);
 }
 
 bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* tau_a, double t_b,
@@ -160,11 +167,11 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
     Joint& J = joints_[j];
     const double d = trend.departure(J.last_dq_step, dq_a[j], dq_b[j]);
     // Within the tolerance on the scale's lower bound (see learn()), so within it on the scale.
-    if (std::fabs(d) <= velocity_tolerance_on_bound(J) * trend.noise_ratio) continue;
+    if (std::fabs(d) <= velocity_tolerance_on_bound(J, j) * trend.noise_ratio) continue;
     double tol = velocity_tolerance(index) * trend.noise_ratio;
     if (!std::isfinite(tol)) continue;
     // Beyond the scale as last computed: judged on it brought up to date.
-    if (std::fabs(d) > tol && refresh(J.abs_velocity_curvature)) tol = velocity_tolerance(index) * trend.noise_ratio;
+    if (std::fabs(d) > tol && refresh(abs_velocity_curvature_, j)) tol = velocity_tolerance(index) * trend.noise_ratio;
     if (std::fabs(d) <= tol) continue;
     // The velocity left its trend: by a torque the motor shows, or one too small to matter?
     if (!have_mass) {
@@ -173,7 +180,7 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
     }
     const double implied = mass_(index, index) * std::fabs(d) / dt;
     // The motor torque's scale is needed here only: computed on demand, not on a schedule.
-    if (J.abs_torque_curvature.pushes_since_update() > 0) J.abs_torque_curvature.update();
+    if (abs_torque_curvature_.pushes_since_update(index) > 0) abs_torque_curvature_.update(index);
     const double motor = trend.departure(J.last_tau_step, tau_a[j], tau_b[j]);
     const double motor_tol = torque_tolerance(index) * trend.noise_ratio;
     if (!(implied > std::fabs(motor) + motor_tol)) continue;
@@ -185,11 +192,12 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
   return false;
 }
 
-bool SignalCheck::refresh(core::RunningMedian<kWindow>& scale) {
+bool SignalCheck::refresh(core::RunningMedianBank<kWindow>& scales, std::size_t j) {
+  const int k = static_cast<int>(j);
   // At rest on quantised signals a scale may be 0 and many rows beyond it (then judged on the
   // quantisation floor): recomputed at most every kRefreshJudged pushes, the cost stays bounded.
-  if (scale.pushes_since_update() < kRefreshJudged) return false;
-  scale.update();
+  if (scales.pushes_since_update(k) < kRefreshJudged) return false;
+  scales.update(k);
   return true;
 }
 
@@ -225,12 +233,13 @@ bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq
     if (!move_within_velocity_limit(J, moved, dt)) return false;
     // The quantisation floor without its velocity term (at rest, where the scale is 0).
     if (ready() && !(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])) <=
-                     std::max(position_scale * J.abs_error.lower_bound(), options_.sigmas * J.q_quantum * kInvSqrt6)))
+                     std::max(position_scale * abs_error_.lower_bound(static_cast<int>(j)),
+                              options_.sigmas * J.q_quantum * kInvSqrt6)))
       return false;
     // As velocity_jumps(), on the scale's lower bound.
     if (trend) {
       const double d = extension.departure(J.last_dq_step, dq_a[j], dq_b[j]);
-      if (!(std::fabs(d) <= velocity_tolerance_on_bound(J) * extension.noise_ratio)) return false;
+      if (!(std::fabs(d) <= velocity_tolerance_on_bound(J, j) * extension.noise_ratio)) return false;
     }
   }
   return true;
@@ -257,11 +266,11 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     // Within the learnt scale's lower bound (see learn()), so within the tolerance (the
     // quantisation floor being the other candidate of its max): agreed, without the median
     // and the floor's square root.
-    if (std::fabs(e) <= options_.sigmas * (kMadToSigma * J.abs_error.lower_bound() * stretch)) continue;
+    if (std::fabs(e) <= options_.sigmas * (kMadToSigma * abs_error_.lower_bound(index) * stretch)) continue;
     // Beyond it: judged on the scale brought up to date, and on the position's step when this
     // move is one the velocity does not explain and the second of its size.
     if (std::fabs(0.5 * dt * (dq_a[j] + dq_b[j])) < 0.5 * std::fabs(moved)) note_unexplained_move(J, std::fabs(moved));
-    refresh(J.abs_error);
+    refresh(abs_error_, j);
     const double tol = tolerance_as_computed(index, dt, typical_dt);
     if (!(std::fabs(e) <= tol)) {
       if (why) *why = joint_name(index) + "'s position moved " + core::short_number(moved) + ", its velocity says " +
@@ -323,11 +332,14 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   const bool warming = intervals_ < static_cast<std::uint64_t>(kWarmUp);
   const bool trend_warming = curvatures_ <= static_cast<std::uint64_t>(kWarmUp);
   const double stretch = on_trend ? dt / last_dt_ : 0;  // the last steps extended over dt
-  for (std::size_t j = 0; j < joints_.size(); ++j) {
+  const std::size_t n = joints_.size();
+  double* abs_error = learnt_.data();
+  double* abs_velocity_curvature = learnt_.data() + n;
+  double* abs_torque_curvature = learnt_.data() + 2 * n;
+  for (std::size_t j = 0; j < n; ++j) {
     Joint& J = joints_[j];
     const double moved = q_b[j] - q_a[j];
-    J.abs_error.push(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])));
-    if (warming || !J.abs_error.bound_holds()) J.abs_error.update();
+    abs_error[j] = std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j]));
     const double velocity_step = dq_b[j] - dq_a[j];
     if (continues) {
       lower_quantum(J.q_curvature_quantum, std::fabs(moved - J.last_q_step), q_a[j], q_b[j]);
@@ -336,14 +348,24 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
     }
     // The velocity's departure from the trend, as velocity_jumps() measures it.
     const double torque_step = tau_b[j] - tau_a[j];
-    if (on_trend) {
-      J.abs_velocity_curvature.push(std::fabs(velocity_step - J.last_dq_step * stretch));
-      if (trend_warming || !J.abs_velocity_curvature.bound_holds()) J.abs_velocity_curvature.update();
-      J.abs_torque_curvature.push(std::fabs(torque_step - J.last_tau_step * stretch));
-    }
+    abs_velocity_curvature[j] = std::fabs(velocity_step - J.last_dq_step * stretch);
+    abs_torque_curvature[j] = std::fabs(torque_step - J.last_tau_step * stretch);
     J.last_q_step = moved;
     J.last_dq_step = velocity_step;
     J.last_tau_step = torque_step;
+  }
+  abs_error_.push(abs_error);
+  if (warming || !abs_error_.bounds_held_at_push()) {
+    for (int k = 0; k < abs_error_.windows(); ++k)
+      if (warming || !abs_error_.bound_holds(k)) abs_error_.update(k);
+  }
+  if (on_trend) {
+    abs_velocity_curvature_.push(abs_velocity_curvature);
+    abs_torque_curvature_.push(abs_torque_curvature);
+    if (trend_warming || !abs_velocity_curvature_.bounds_held_at_push()) {
+      for (int k = 0; k < abs_velocity_curvature_.windows(); ++k)
+        if (trend_warming || !abs_velocity_curvature_.bound_holds(k)) abs_velocity_curvature_.update(k);
+    }
   }
   last_t_ = t_b;
   last_dt_ = dt;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -98,6 +99,47 @@ void select_ranks(std::uint64_t* keys, int n, std::uint64_t from, std::uint64_t 
   }
 }
 
+// The median of window[0..count) (count <= N; any order; for an even count the mean of the two
+// middle values; 0 when empty), and the lower middle value in `lower`: selected by buckets of the
+// values' order keys (select_ranks) for N >= 32, with nth_element for a smaller window or one
+// that holds a NaN. The same value, bit for bit, either way.
+template <int N>
+double window_median(const double* window, int count, double* lower) {
+  *lower = 0;
+  if (count <= 0) return 0;
+  const int high = count / 2;                        // rank of the upper middle value
+  const int low = count % 2 == 0 ? high - 1 : high;  // and of the lower one
+  double lower_value = 0, upper_value = 0;
+  // NaNs are looked for here, not counted as they come: a caller that pushes on every row and
+  // updates rarely (the signal check) pays for them rarely.
+  bool nan = false;
+  for (int k = 0; k < count; ++k) nan = nan || window[k] != window[k];
+  // A small window (a stream's time step, 16) selects faster with nth_element: about 510
+  // against 960 instructions an update (callgrind, mo-observe on the UR5 bench stream).
+  if (!nan && N >= 32) {
+    std::uint64_t keys[N];
+    std::uint64_t from = ~std::uint64_t{0}, to = 0;
+    for (int k = 0; k < count; ++k) {
+      const std::uint64_t key = order_key(window[k]);
+      keys[k] = key;
+      from = std::min(from, key);
+      to = std::max(to, key);
+    }
+    std::uint64_t low_key = 0, high_key = 0;
+    select_ranks<N>(keys, count, from, to, low, high, &low_key, &high_key);
+    upper_value = from_order_key(high_key);
+    lower_value = low == high ? upper_value : from_order_key(low_key);
+  } else {
+    double sorted[N];
+    std::copy(window, window + count, sorted);
+    std::nth_element(sorted, sorted + high, sorted + count);
+    upper_value = lower_value = sorted[high];
+    if (low != high) lower_value = *std::max_element(sorted, sorted + high);
+  }
+  *lower = lower_value;
+  return low == high ? upper_value : 0.5 * (upper_value + lower_value);
+}
+
 }  // namespace detail
 
 // The median of the last N values pushed: a stream's typical time step, robust to the gaps and
@@ -148,25 +190,8 @@ class RunningMedian {
   double update() {
     pushed_ = 0;
     if (count_ == 0) return median_;
-    const int high = count_ / 2;                         // rank of the upper middle value
-    const int low = count_ % 2 == 0 ? high - 1 : high;   // and of the lower one
-    double lower = 0, upper = 0;  // the values of ranks low and high
-    // NaNs are looked for here, not counted as they come: a caller that pushes on every row and
-    // updates rarely (the signal check) pays for them rarely.
-    bool nan = false;
-    for (int k = 0; k < count_; ++k) nan = nan || window_[k] != window_[k];
-    // A small window (a stream's time step, 16) selects faster with nth_element: about 510
-    // against 960 instructions an update (callgrind, mo-observe on the UR5 bench stream).
-    if (!nan && N >= 32) {
-      select_middle(low, high, &lower, &upper);
-    } else {
-      double sorted[N];
-      std::copy(window_, window_ + count_, sorted);
-      std::nth_element(sorted, sorted + high, sorted + count_);
-      upper = lower = sorted[high];
-      if (low != high) lower = *std::max_element(sorted, sorted + high);
-    }
-    median_ = low == high ? upper : 0.5 * (upper + lower);
+    double lower = 0;
+    median_ = detail::window_median<N>(window_, count_, &lower);
     if constexpr (KeepsBound) {
       // Of the lower middle value: the mean of the two middle ones may lie far above it.
       bound_ = kBoundFraction * lower;
@@ -193,22 +218,6 @@ class RunningMedian {
   int pushes_since_update() const { return pushed_; }
 
  private:
-  // The values of ranks low and high (high - low <= 1) of the window, NaN-free.
-  void select_middle(int low, int high, double* lower_value, double* upper_value) const {
-    std::uint64_t keys[N];
-    std::uint64_t from = ~std::uint64_t{0}, to = 0;
-    for (int k = 0; k < count_; ++k) {
-      const std::uint64_t key = detail::order_key(window_[k]);
-      keys[k] = key;
-      from = std::min(from, key);
-      to = std::max(to, key);
-    }
-    std::uint64_t lower = 0, upper = 0;
-    detail::select_ranks<N>(keys, count_, from, to, low, high, &lower, &upper);
-    *upper_value = detail::from_order_key(upper);
-    *lower_value = low == high ? *upper_value : detail::from_order_key(lower);
-  }
-
   double window_[N] = {};
   int count_ = 0;
   int next_ = 0;
@@ -216,6 +225,126 @@ class RunningMedian {
   int pushed_ = 0;  // pushes since the last update()
   double bound_ = 0;
   int below_ = 0;   // values in the window below bound_
+};
+
+// K running medians of the last N values each, pushed together, one value per window: the
+// signal check's scales, a window per joint. Each window's median, and with KeepsBound its
+// lower bound and bound_holds(), are RunningMedian<N, KeepsBound>'s, bit for bit, for the same
+// values pushed. The ring's position, fill and push count are kept once for all K windows, not
+// once per window, and a push is one pass over K adjacent values (the ring is N rows of K).
+template <int N, bool KeepsBound = true>
+class RunningMedianBank {
+ public:
+  static_assert(N > 0);
+  static constexpr double kBoundFraction = RunningMedian<N>::kBoundFraction;
+
+  // `windows` (>= 0) medians, each 0 until its first update().
+  explicit RunningMedianBank(int windows)
+      : windows_(windows),
+        ring_(static_cast<std::size_t>(N) * static_cast<std::size_t>(windows)),
+        median_(static_cast<std::size_t>(windows)),
+        bound_(KeepsBound ? static_cast<std::size_t>(windows) : 0),
+        below_(KeepsBound ? static_cast<std::size_t>(windows) : 0),
+        updated_at_(static_cast<std::size_t>(windows)) {}
+
+  // Records values[k] in window k, for every k < windows().
+  void push(const double* values) {
+    const int windows = windows_;  // held in a register: the stores below may alias the member
+    double* row = ring_.data() + static_cast<std::size_t>(next_) * static_cast<std::size_t>(windows);
+    if constexpr (KeepsBound) {
+      // The row's values leave their windows once the ring is full.
+      const bool leaving = count_ == N;
+      count_ += count_ < N;
+      const double most_below = (count_ - 1) / 2;
+      const double* bound = bound_.data();
+      double* below = below_.data();
+      // Two windows at a time, in SSE2's registers (x86-64's baseline): a comparison gives all
+      // ones where it holds, and so 1.0 and 0.0 through a mask. The counts are whole numbers far
+      // below 2^53, exact in doubles, which SSE2 compares where it cannot compare 64-bit integers.
+      typedef double Pair __attribute__((vector_size(16)));
+      typedef std::int64_t PairMask __attribute__((vector_size(16)));
+      const PairMask one = reinterpret_cast<PairMask>(Pair{} + 1.0);
+      const PairMask one_leaving = leaving ? one : PairMask{};
+      const Pair most = Pair{} + most_below;
+      PairMask beyond{};
+      int k = 0;
+      for (; k + 2 <= windows; k += 2) {
+        Pair value, limit, old, count;
+        std::memcpy(&value, values + k, sizeof value);
+        std::memcpy(&limit, bound + k, sizeof limit);
+        std::memcpy(&old, row + k, sizeof old);
+        std::memcpy(&count, below + k, sizeof count);
+        count += reinterpret_cast<Pair>((value < limit) & one);
+        count -= reinterpret_cast<Pair>((old < limit) & one_leaving);
+        beyond |= count > most;
+        std::memcpy(below + k, &count, sizeof count);
+        std::memcpy(row + k, &value, sizeof value);
+      }
+      bool held = (beyond[0] | beyond[1]) == 0;
+      for (; k < windows; ++k) {
+        below[k] += static_cast<double>(values[k] < bound[k]) - static_cast<double>(leaving && row[k] < bound[k]);
+        held = held && below[k] <= most_below;
+        row[k] = values[k];
+      }
+      bounds_held_ = held;
+    } else {
+      for (int k = 0; k < windows; ++k) row[k] = values[k];
+      count_ += count_ < N;
+    }
+    if (++next_ == N) next_ = 0;
+    ++pushed_;
+  }
+  // Window k's median (as RunningMedian<N>::update()); 0 before the first push.
+  double update(int k) {
+    const std::size_t w = static_cast<std::size_t>(k);
+    updated_at_[w] = pushed_;
+    if (count_ == 0) return median_[w];
+    double window[N];
+    for (int m = 0; m < count_; ++m) window[m] = ring_[static_cast<std::size_t>(m * windows_ + k)];
+    double lower = 0;
+    median_[w] = detail::window_median<N>(window, count_, &lower);
+    if constexpr (KeepsBound) {
+      bound_[w] = kBoundFraction * lower;
+      int below = 0;
+      for (int m = 0; m < count_; ++m) below += window[m] < bound_[w];
+      below_[w] = below;
+    }
+    return median_[w];
+  }
+  double value(int k) const { return median_[static_cast<std::size_t>(k)]; }  // as of its last update()
+  // At most window k's median now while bound_holds(k) (for values >= 0).
+  double lower_bound(int k) const {
+    static_assert(KeepsBound);
+    return bound_[static_cast<std::size_t>(k)];
+  }
+  // Whether window k's lower middle value is still at least lower_bound(k), so its median is.
+  bool bound_holds(int k) const {
+    static_assert(KeepsBound);
+    return below_[static_cast<std::size_t>(k)] <= (count_ - 1) / 2;
+  }
+  // Whether every window's bound held after the last push (as bound_holds(k) for every k
+  // then): when it did, no window needs an update for its bound.
+  bool bounds_held_at_push() const {
+    static_assert(KeepsBound);
+    return bounds_held_;
+  }
+  int pushes_since_update(int k) const {
+    const std::uint64_t since = pushed_ - updated_at_[static_cast<std::size_t>(k)];
+    return static_cast<int>(std::min<std::uint64_t>(since, std::numeric_limits<int>::max()));
+  }
+  int windows() const { return windows_; }
+  bool full() const { return count_ == N; }
+
+ private:
+  int windows_;
+  std::vector<double> ring_;  // value m of window k at m * windows_ + k
+  int count_ = 0;
+  int next_ = 0;
+  std::uint64_t pushed_ = 0;
+  bool bounds_held_ = true;
+  std::vector<double> median_, bound_;
+  std::vector<double> below_;              // values of each window below its bound
+  std::vector<std::uint64_t> updated_at_;  // pushed_ at each window's last update()
 };
 
 // The same median of the last N values as RunningMedian (bit for bit: the same element, the same

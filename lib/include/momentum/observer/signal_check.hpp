@@ -148,10 +148,6 @@ class SignalCheck {
 
  private:
   struct Joint {
-    core::RunningMedian<kWindow> abs_error;
-    // |d2| of the velocity and of the motor torque over pairs of consecutive intervals learnt.
-    core::RunningMedian<kWindow> abs_velocity_curvature;
-    core::RunningMedian<kWindow, false> abs_torque_curvature;  // judged on its median only
     double last_tau_step = 0;  // Nm
     // Quantisation steps: the smallest nonzero second difference seen (of consecutive
     // intervals), which is a multiple of the step for a quantised signal and as small as the
@@ -183,19 +179,27 @@ class SignalCheck {
   // tolerance() on the scale as last computed.
   double tolerance_as_computed(int j, double interval, double typical_dt) const;
   // velocity_tolerance() on the lower bound of the velocity's scale (rad/s).
-  double velocity_tolerance_on_bound(const Joint& J) const;
+  double velocity_tolerance_on_bound(const Joint& J, std::size_t j) const;
   // Tolerance of the motor torque's departure from its trend one step on, Nm.
   double torque_tolerance(int j) const;
   // Notes a move of the position that its velocity does not explain (see Joint::rest_step).
   static void note_unexplained_move(Joint& J, double moved);
-  // Recomputes `scale` when kRefreshJudged values or more came in since it was last: whether it did.
-  static bool refresh(core::RunningMedian<kWindow>& scale);
+  // Recomputes window k of `scales` when kRefreshJudged values or more came in since it was
+  // last: whether it did.
+  static bool refresh(core::RunningMedianBank<kWindow>& scales, std::size_t j);
 
   const model::Model& model_;
   model::Data data_;           // scratch of the mass matrix
   Eigen::MatrixXd mass_;       // M(q) of the last row judged
   SignalCheckOptions options_;
   std::vector<Joint> joints_;
+  // The running scales, a window per joint: |e| of the accepted intervals, and |d2| of the
+  // velocity and of the motor torque (judged on its median only) over pairs of consecutive
+  // intervals learnt.
+  core::RunningMedianBank<kWindow> abs_error_;
+  core::RunningMedianBank<kWindow> abs_velocity_curvature_;
+  core::RunningMedianBank<kWindow, false> abs_torque_curvature_;
+  std::vector<double> learnt_;  // learn()'s values for the three: nq each
   std::uint64_t intervals_ = 0;
   double last_t_ = 0;  // end of the last interval learnt: the next one continues it when equal
   double last_dt_ = 0;  // its length, s
