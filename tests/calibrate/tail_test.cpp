@@ -340,3 +340,25 @@ TEST(ParetoTail, SupportedRateIsKnownWithinItsFactorOnFreshData) {
     EXPECT_NEAR(mean, 0, 0.15) << n;
   }
 }
+
+TEST(TailSampler, PeaksOfOnePersistentExcursionCarryTheValleyBetweenThem) {
+  // |x| over 5 for 2 s, wobbling between 6 and 8 every 0.5 s (peaks 0.2 s apart or more), then
+  // under 1 for 1 s, then one more bump to 7: over the level 5 that is two excursions (two
+  // events for a detector), though five or so declustered peaks lie over it.
+  TailSampler s(0.2);
+  const double dt = 0.01;
+  double t = 0;
+  for (; t < 2; t += dt) s.add(7 + std::sin(2 * M_PI * t / 0.5), t, dt, [] { return std::string("x"); });
+  for (; t < 3; t += dt) s.add(0.5, t, dt, [] { return std::string("x"); });
+  for (; t < 3.3; t += dt) s.add(7 - 20 * std::fabs(t - 3.15), t, dt, [] { return std::string("x"); });
+  s.begin_stream();
+  const auto peaks = s.largest();
+  std::size_t over = 0, excursions = 0;
+  for (const auto& p : peaks)
+    if (p.m > 5) {
+      ++over;
+      excursions += p.valley < 5;
+    }
+  EXPECT_GE(over, 4u);
+  EXPECT_EQ(excursions, 2u);
+}

@@ -77,13 +77,18 @@ nlohmann::json out_of_sample_json(const OutOfSample& check) {
   if (check.stretches < 2) return {{"stretches", 0}};
   nlohmann::json states = nlohmann::json::array();
   for (const auto& s : check.states) {
-    if (!(s.seconds > 0)) continue;
-    states.push_back({{"joint", s.joint + 1},
-                      {"state", s.state},
-                      {"false_alarms", s.crossings},
-                      {"seconds", model::json_number(s.seconds)},
-                      {"stated", model::json_number(s.expected)},
-                      {"at_least", s.at_least}});
+    if (!(s.seconds > 0) && !(s.unchecked_seconds > 0)) continue;
+    nlohmann::json item = {{"joint", s.joint + 1},
+                           {"state", s.state},
+                           {"false_alarms", s.crossings},
+                           {"seconds", model::json_number(s.seconds)},
+                           {"stated", model::json_number(s.expected)},
+                           {"at_least", s.at_least}};
+    if (s.unchecked_seconds > 0) {
+      item["unchecked_seconds"] = model::json_number(s.unchecked_seconds);
+      item["unchecked_false_alarms"] = s.unchecked_crossings;
+    }
+    states.push_back(item);
   }
   return {{"stretches", check.stretches},
           {"false_alarms", check.crossings},

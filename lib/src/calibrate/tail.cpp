@@ -83,6 +83,7 @@ void TailSampler::begin_stream() {
   close();
   descending_ = false;
   previous_m_ = 0;
+  since_peak_ = 0;
 }
 
 std::vector<TailPeak> TailSampler::largest() const {

@@ -172,11 +172,12 @@ std::vector<calibrate::CalibrationResult> calibrate_streams(const std::vector<st
     expected[signal] = model::json_number(r.expected_false_alarms_per_hour());
     vouched[signal] = model::json_number(r.vouched_false_alarms_per_hour());
     checked[signal] = out_of_sample_json(r.out_of_sample);
-    // The profile keeps the states that saw false alarms: where the promise was tested hardest.
+    // The profile keeps the states that saw false alarms: where the promise was tested hardest;
+    // and those with time left unchecked: where it was not tested.
     if (checked[signal].contains("states")) {
       nlohmann::json crossed = nlohmann::json::array();
       for (const auto& state : checked[signal]["states"])
-        if (state["false_alarms"].get<std::uint64_t>() > 0) crossed.push_back(state);
+        if (state["false_alarms"].get<std::uint64_t>() > 0 || state.contains("unchecked_seconds")) crossed.push_back(state);
       checked[signal]["states"] = crossed;
     }
   }

@@ -292,23 +292,30 @@ struct JointCalibration {
 
 // The calibration's promise checked out of sample: each stretch of the data (a log, or the part
 // of a log after a clock step or a long gap) in turn is left out, the others are calibrated
-// with the same options, and the left-out stretch's declustered peaks over those thresholds
-// are counted (each one an excursion the detector would raise an event for), against the
+// with the same options, and the left-out stretch's excursions over those thresholds are
+// counted (declustered peaks over a threshold with the signal under it since the peak before:
+// each one an excursion the detector would raise an event for), against the
 // rate the left-out calibration states for that stretch's time in each state.
 struct OutOfSample {
   struct State {
     std::size_t joint = 0;  // 0-based
     std::string state;      // moving, slow, rest (rows at rest, whichever statistic)
-    std::uint64_t crossings = 0;  // left-out peaks over the left-out calibration's threshold
+    std::uint64_t crossings = 0;  // left-out excursions over the left-out calibration's threshold
     double seconds = 0;           // left-out time in the state, s
     double expected = 0;          // crossings the left-out calibrations state for that time
     bool at_least = false;        // more peaks crossed than were kept: crossings is a bound
     std::vector<TailPeak> first;  // the largest few crossings, for the report
+    // Held-out time in this state that the left-out calibration had no rows of its own for
+    // (every such row was in the stretch left out) while the full calibration has: judged by
+    // another state's threshold, it tests no statement, and is counted apart.
+    double unchecked_seconds = 0;
+    std::uint64_t unchecked_crossings = 0;  // excursions there over the borrowed threshold
   };
   std::size_t stretches = 0;    // stretches left out in turn (0: fewer than 2, no check)
   std::uint64_t crossings = 0;  // summed over joints and states (an upper bound on events)
   double seconds = 0;           // the data's time, s
   double expected = 0;          // the crossings the calibrations stated for it
+  double unchecked_seconds = 0;  // joint-state seconds not checked (State::unchecked_seconds), summed
   std::vector<State> states;    // per joint and state with time in it
   // Per hour of logs: seen, and as stated by the left-out calibrations (NaN without a check).
   double seen_per_hour() const { return seconds > 0 ? crossings / (seconds / 3600) : NAN; }

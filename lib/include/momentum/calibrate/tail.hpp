@@ -12,6 +12,7 @@
 // excursion far beyond that tail (a glitch, an unmarked bump, an abrupt stop) from the tail
 // itself, so that one such row cannot set a threshold.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -25,6 +26,11 @@ struct TailPeak {
   double m = 0;
   double t = 0;
   std::string where;
+  // The lowest |x| between the previous peak of the stream and this one (0 for the first): the
+  // peak starts an excursion over a level u (an up-crossing, which the detector raises an event
+  // for) only when valley < u. Peaks over u of one persistent excursion, `window` apart, are
+  // one event, not one each.
+  double valley = 0;
 };
 
 // Declustered peaks of one signal, the largest `keep` of them, in constant memory.
@@ -48,16 +54,24 @@ class TailSampler {
     if (!has_candidate_) {
       // After a peak, the excursion's fall belongs to it: the next one starts where the signal
       // rises again.
-      if (descending_ && m <= previous) return;
+      if (descending_ && m <= previous) {
+        since_peak_ = std::min(since_peak_, m);
+        return;
+      }
       descending_ = false;
       has_candidate_ = true;
       candidate_.m = -1;
+      candidate_.valley = since_peak_;
     }
     if (m > candidate_.m) {
       candidate_.m = m;
       candidate_.t = t;
+      candidate_.valley = std::min(candidate_.valley, since_peak_);
+      since_peak_ = INFINITY;
       if (could_keep(m)) candidate_.where = where();
       else candidate_.where.clear();
+    } else {
+      since_peak_ = std::min(since_peak_, m);
     }
   }
 
@@ -83,6 +97,7 @@ class TailSampler {
   TailPeak candidate_;
   bool descending_ = false;
   double previous_m_ = 0;
+  double since_peak_ = 0;  // lowest |x| since the last peak's row (0 at a stream's start)
 };
 
 // A generalised Pareto tail: P(peak > u0 + y | peak > u0) = (1 + xi y / sigma)^(-1/xi), with
