@@ -509,18 +509,23 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
     observer_.precompute(static_cast<int>(more + 1), q_of, dq_of);
   };
 
+  const bool reader_orders_time = in_.time_summary() != nullptr;
   while (const double* row = in_.next()) {
     ++rows;
     unpacked = nullptr;
     if (compute_ahead && observer_.precomputed() == 0) precompute_ahead(row);
     if (options_.progress && (rows & 0xffff) == 0) options_.progress(rows, t);
     // An exact duplicate has the same time first (or both NaN): most rows are told by it alone.
-    const double row_t = row[t_index_], previous_t = previous_row[t_index_];
-    const bool duplicate = have_previous_row && (row_t == previous_t || (row_t != row_t && previous_t != previous_t)) &&
-                           std::equal(row, row + width_in, previous_row.begin(),
-                                      [](double a, double b) { return a == b || (a != a && b != b); });
-    std::copy(row, row + width_in, previous_row.begin());
-    have_previous_row = true;
+    // The reader's time policy hands on rows in increasing time only, none a duplicate.
+    bool duplicate = false;
+    if (!reader_orders_time) {
+      const double row_t = row[t_index_], previous_t = previous_row[t_index_];
+      duplicate = have_previous_row && (row_t == previous_t || (row_t != row_t && previous_t != previous_t)) &&
+                  std::equal(row, row + width_in, previous_row.begin(),
+                             [](double a, double b) { return a == b || (a != a && b != b); });
+      std::copy(row, row + width_in, previous_row.begin());
+      have_previous_row = true;
+    }
     if (in_.time_mark() == stream::TimeMark::clock_step) {
       // The stream's time policy kept this row as the start of a new time line.
       leave_out_held("bridged");
