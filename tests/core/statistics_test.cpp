@@ -113,12 +113,13 @@ TEST(RunningMedian, EqualsTheMedianSelectedAfreshAtEveryUpdate) {
 // while bound_holds(), through a scale that drifts, falls by a factor of 100 (an arm coming to
 // rest), rises again, and values at rest that are 0; and a push that leaves it failing is
 // seen: a window of 1s after an update (bound 0.75) fails once 64 of 128 values are 0.5.
-TEST(RunningMedian, LowerBoundHoldsBetweenUpdates) {
+TEST(RunningMedianBank, LowerBoundHoldsBetweenUpdates) {
   constexpr int kN = 128;
   std::mt19937_64 rng(11);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_int_distribution<int> few(0, 3);
-  RunningMedian<kN> median, exact;
+  RunningMedianBank<kN> median(1);
+  RunningMedian<kN> exact;
   int updates = 0;
   for (int k = 0; k < 40000; ++k) {
     double scale = 1.0;
@@ -126,78 +127,104 @@ TEST(RunningMedian, LowerBoundHoldsBetweenUpdates) {
     if (k % 10000 >= 4000) scale = 0.01 + 3.0 * (k % 10000 - 4000) / 6000.0;
     double v = std::fabs(scale * normal(rng));
     if (k >= 30000) v = 1e-4 * few(rng);
-    median.push(v);
+    median.push(&v);
     exact.push(v);
     // A bound of 0 always holds: computed first as the signal check does through its warm-up.
-    if (k < 16 || !median.bound_holds()) {
-      median.update();
+    if (k < 16 || !median.bound_holds(0)) {
+      median.update(0);
       ++updates;
     }
-    ASSERT_TRUE(median.bound_holds());
-    ASSERT_LE(median.lower_bound(), exact.update()) << "push " << k;
+    ASSERT_TRUE(median.bound_holds(0));
+    ASSERT_LE(median.lower_bound(0), exact.update()) << "push " << k;
   }
   // 16 in the warm-up, and about log(100) / log(4/3) = 16 as the scale falls by 100: far fewer
   // recomputations than pushes.
   EXPECT_LT(updates, 60);
-  RunningMedian<kN> ones;
-  for (int k = 0; k < kN; ++k) ones.push(1.0);
-  EXPECT_EQ(ones.update(), 1.0);
-  EXPECT_EQ(ones.lower_bound(), 0.75);
-  for (int k = 0; k < 63; ++k) ones.push(0.5);
-  EXPECT_TRUE(ones.bound_holds());
-  ones.push(0.5);
-  EXPECT_FALSE(ones.bound_holds());
-  EXPECT_EQ(ones.update(), 0.75);  // the mean of 0.5 and 1
+  RunningMedianBank<kN> ones(1);
+  const double one = 1.0, half = 0.5;
+  for (int k = 0; k < kN; ++k) ones.push(&one);
+  EXPECT_EQ(ones.update(0), 1.0);
+  EXPECT_EQ(ones.lower_bound(0), 0.75);
+  for (int k = 0; k < 63; ++k) ones.push(&half);
+  EXPECT_TRUE(ones.bound_holds(0));
+  EXPECT_TRUE(ones.bounds_held_at_push());
+  ones.push(&half);
+  EXPECT_FALSE(ones.bound_holds(0));
+  EXPECT_FALSE(ones.bounds_held_at_push());
+  EXPECT_EQ(ones.update(0), 0.75);  // the mean of 0.5 and 1
 }
 
-// A bank of windows pushed together is K RunningMedians pushed alike: after every push each
-// window's bound_holds() and pushes since its update are the same, and an update gives the same
-// median and lower bound, bit for bit; windows updated on their own schedules (as the signal
-// check updates a joint's scale when its bound fails), on values of other scales and kinds
-// (ties, zeros, a NaN now and then), while the ring fills and once it slides.
-TEST(RunningMedianBank, IsRunningMedianPerWindowBitForBit) {
+// A bank of windows pushed together: each window's median is RunningMedian's, bit for bit;
+// its lower bound is 0.75 times the lower middle value of the window at its update (selected
+// afresh), and bound_holds() says, after every push, whether at most the lower half of the
+// window's values lie below that bound (counted afresh); bounds_held_at_push() is every
+// window's bound_holds() after the push. Windows are updated on their own schedules (as the
+// signal check updates a joint's scale when its bound fails), on values of other scales and
+// kinds (ties, zeros, a NaN now and then), while the ring fills and once it slides.
+TEST(RunningMedianBank, IsRunningMedianPerWindowWithItsBoundCountedAfresh) {
   constexpr int kN = 128, kWindows = 7;
   std::mt19937_64 rng(17);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_int_distribution<int> few(0, 5);
   std::uniform_int_distribution<int> gap(1, 300);
   RunningMedianBank<kN> bank(kWindows);
+  RunningMedianBank<kN, false> plain(kWindows);  // the same medians without the bound
   std::vector<RunningMedian<kN>> single(kWindows);
+  std::vector<std::vector<double>> history(kWindows);
+  std::vector<double> bound(kWindows, 0.0);
   std::vector<int> until_update(kWindows, 1);
   std::vector<double> values(kWindows);
   EXPECT_EQ(bank.windows(), kWindows);
   EXPECT_EQ(bank.update(3), 0);  // empty
   single[3].update();
+  auto last = [&](int k) {  // the window: the last kN values of history k
+    const std::vector<double>& h = history[static_cast<std::size_t>(k)];
+    return std::vector<double>(h.end() - std::min<std::ptrdiff_t>(kN, static_cast<std::ptrdiff_t>(h.size())), h.end());
+  };
   int updates = 0, bound_failures = 0;
   for (int push = 0; push < 30000; ++push) {
     for (int k = 0; k < kWindows; ++k) {
       const double scale = k == 0 ? 1.0 : std::exp(3.0 * std::sin(1e-3 * push + k));  // drifts by decades
       double v = std::fabs(scale * normal(rng));
-      if (k == 1) v = 1e-4 * few(rng);              // quantised, many ties and zeros
+      if (k == 1) v = 1e-4 * few(rng);  // quantised, many ties and zeros
       if (k == 2 && push % 4999 == 100) v = std::nan("");
       values[static_cast<std::size_t>(k)] = v;
       single[static_cast<std::size_t>(k)].push(v);
+      history[static_cast<std::size_t>(k)].push_back(v);
     }
     bank.push(values.data());
+    plain.push(values.data());
     ASSERT_EQ(bank.full(), single[0].full());
+    bool all_held = true;
     for (int k = 0; k < kWindows; ++k) {
-      RunningMedian<kN>& reference = single[static_cast<std::size_t>(k)];
-      ASSERT_EQ(bank.bound_holds(k), reference.bound_holds()) << "window " << k << ", push " << push;
-      ASSERT_EQ(bank.pushes_since_update(k), reference.pushes_since_update());
+      const std::vector<double> window = last(k);
+      const auto below = std::count_if(window.begin(), window.end(), [&](double x) { return x < bound[static_cast<std::size_t>(k)]; });
+      const bool holds = below <= (static_cast<std::ptrdiff_t>(window.size()) - 1) / 2;
+      ASSERT_EQ(bank.bound_holds(k), holds) << "window " << k << ", push " << push;
+      all_held = all_held && holds;
+      ASSERT_EQ(bank.pushes_since_update(k), single[static_cast<std::size_t>(k)].pushes_since_update());
+    }
+    ASSERT_EQ(bank.bounds_held_at_push(), all_held);
+    for (int k = 0; k < kWindows; ++k) {
       const bool fails = !bank.bound_holds(k);
       bound_failures += fails;
       if (--until_update[static_cast<std::size_t>(k)] > 0 && !fails) continue;
       until_update[static_cast<std::size_t>(k)] = k % 2 ? gap(rng) : 1 + few(rng);
-      const double expected = reference.update();
+      const double expected = single[static_cast<std::size_t>(k)].update();
       const double got = bank.update(k);
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(plain.update(k)), std::bit_cast<std::uint64_t>(got));
       ++updates;
-      if (std::isnan(expected)) {
-        ASSERT_TRUE(std::isnan(got));
+      std::vector<double> window = last(k);
+      if (std::any_of(window.begin(), window.end(), [](double x) { return std::isnan(x); })) {
+        bound[static_cast<std::size_t>(k)] = bank.lower_bound(k);  // unspecified with a NaN; followed
         continue;
       }
       ASSERT_EQ(std::bit_cast<std::uint64_t>(got), std::bit_cast<std::uint64_t>(expected)) << "window " << k;
       ASSERT_EQ(bank.value(k), expected);
-      ASSERT_EQ(bank.lower_bound(k), reference.lower_bound());
+      const std::size_t lower_rank = (window.size() - 1) / 2;
+      std::nth_element(window.begin(), window.begin() + static_cast<std::ptrdiff_t>(lower_rank), window.end());
+      bound[static_cast<std::size_t>(k)] = 0.75 * window[lower_rank];
+      ASSERT_EQ(bank.lower_bound(k), bound[static_cast<std::size_t>(k)]) << "window " << k;
       ASSERT_TRUE(bank.bound_holds(k));
       ASSERT_EQ(bank.pushes_since_update(k), 0);
     }

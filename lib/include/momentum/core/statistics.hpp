@@ -144,44 +144,15 @@ double window_median(const double* window, int count, double* lower) {
 
 // The median of the last N values pushed: a stream's typical time step, robust to the gaps and
 // the jitter it is there to judge. push() records; update() recomputes, so a caller on a hot
-// path may refresh less often than it pushes.
-//
-// Between updates it keeps a lower bound of the window's median at the cost of two comparisons
-// a push: kBoundFraction times the lower middle value last computed, for as long as no more
-// than the lower half of the window's values lie below it (counted as values come and go). A
-// caller that accepts what lies within a multiple of the median can accept on the bound
-// without computing the median, and update() only when bound_holds() turns false or a value
-// lies beyond the bound.
-//
-// update() selects the middle ranks by buckets of the values' order keys (detail::select_ranks),
-// or for a window of fewer than 32 with nth_element.
-// For the signal check's windows of 128, with half the window new, that costs
-// 5,100 instructions where an nth_element beside the last median cost 7,100 (the middle moves
-// too far between such updates for a neighbourhood search). With a NaN in the window it
-// selects with nth_element over the window. The median is the same value, bit for bit, either
-// way: the middle element of the sorted window, or the mean of the two middle ones.
-//
-// With KeepsBound false, a window whose median alone is read (the signal check's torque
-// curvature, the observer's time step) skips the bound's bookkeeping: the two comparisons a
-// push makes against it, and the count update() makes.
-template <int N, bool KeepsBound = true>
+// path may refresh less often than it pushes. update() is detail::window_median: the middle
+// element of the sorted window, or the mean of the two middle ones.
+template <int N>
 class RunningMedian {
  public:
   static_assert(N > 0);
-  // Fraction of the lower middle value last computed that lower_bound() is: the window's
-  // values below it are, for normal noise, 39% of the window (|x| < 0.51 sigma), so it holds
-  // through the fluctuations of a steady window and fails with one whose scale falls by a
-  // quarter.
-  static constexpr double kBoundFraction = 0.75;
-
   void push(double value) {
-    if (count_ == N) {
-      if constexpr (KeepsBound) below_ -= window_[next_] < bound_;
-    } else {
-      ++count_;
-    }
+    count_ += count_ < N;
     window_[next_] = value;
-    if constexpr (KeepsBound) below_ += value < bound_;
     if (++next_ == N) next_ = 0;
     ++pushed_;
   }
@@ -192,28 +163,9 @@ class RunningMedian {
     if (count_ == 0) return median_;
     double lower = 0;
     median_ = detail::window_median<N>(window_, count_, &lower);
-    if constexpr (KeepsBound) {
-      // Of the lower middle value: the mean of the two middle ones may lie far above it.
-      bound_ = kBoundFraction * lower;
-      int below = 0;
-      for (int k = 0; k < count_; ++k) below += window_[k] < bound_;
-      below_ = below;
-    }
     return median_;
   }
   double value() const { return median_; }  // as of the last update()
-  // At most the window's median now while bound_holds() (for values >= 0; kBoundFraction times
-  // the lower middle value last computed).
-  double lower_bound() const {
-    static_assert(KeepsBound);
-    return bound_;
-  }
-  // Whether the lower middle value of the window is still at least lower_bound(), so the
-  // median is.
-  bool bound_holds() const {
-    static_assert(KeepsBound);
-    return below_ <= (count_ - 1) / 2;
-  }
   bool full() const { return count_ == N; }
   int pushes_since_update() const { return pushed_; }
 
@@ -223,20 +175,34 @@ class RunningMedian {
   int next_ = 0;
   double median_ = 0;
   int pushed_ = 0;  // pushes since the last update()
-  double bound_ = 0;
-  int below_ = 0;   // values in the window below bound_
 };
 
 // K running medians of the last N values each, pushed together, one value per window: the
-// signal check's scales, a window per joint. Each window's median, and with KeepsBound its
-// lower bound and bound_holds(), are RunningMedian<N, KeepsBound>'s, bit for bit, for the same
-// values pushed. The ring's position, fill and push count are kept once for all K windows, not
-// once per window, and a push is one pass over K adjacent values (the ring is N rows of K).
+// signal check's scales, a window per joint. Each window's median is RunningMedian<N>'s, bit
+// for bit, for the same values pushed. The ring's position, fill and push count are kept once
+// for all K windows, and a push is one pass over K adjacent values (the ring is N rows of K).
+//
+// With KeepsBound, between updates each window keeps a lower bound of its median at the cost
+// of two comparisons a push: kBoundFraction times the lower middle value last computed, for as
+// long as no more than the lower half of the window's values lie below it (counted as values
+// come and go). A caller that accepts what lies within a multiple of the median can accept on
+// the bound without computing the median, and update() only when bound_holds() turns false or
+// a value lies beyond the bound. A window whose median alone is read (the signal check's
+// torque curvature) skips that bookkeeping without it.
+//
+// update() selects the middle ranks by buckets of the values' order keys (detail::select_ranks):
+// for the signal check's windows of 128, with half the window new, that costs 5,100
+// instructions where an nth_element beside the last median cost 7,100 (the middle moves too far
+// between such updates for a neighbourhood search).
 template <int N, bool KeepsBound = true>
 class RunningMedianBank {
  public:
   static_assert(N > 0);
-  static constexpr double kBoundFraction = RunningMedian<N>::kBoundFraction;
+  // Fraction of the lower middle value last computed that lower_bound() is: the window's
+  // values below it are, for normal noise, 39% of the window (|x| < 0.51 sigma), so it holds
+  // through the fluctuations of a steady window and fails with one whose scale falls by a
+  // quarter.
+  static constexpr double kBoundFraction = 0.75;
 
   // `windows` (>= 0) medians, each 0 until its first update().
   explicit RunningMedianBank(int windows)
@@ -294,7 +260,8 @@ class RunningMedianBank {
     if (++next_ == N) next_ = 0;
     ++pushed_;
   }
-  // Window k's median (as RunningMedian<N>::update()); 0 before the first push.
+  // Window k's median (for an even count, the mean of the two middle values); 0 before the
+  // first push.
   double update(int k) {
     const std::size_t w = static_cast<std::size_t>(k);
     updated_at_[w] = pushed_;

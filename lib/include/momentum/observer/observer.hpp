@@ -220,7 +220,7 @@ class MomentumObserver {
   // A step this much longer than the median means lost samples (or a jitter of more than a
   // quarter period each way): such a step is checked before it is integrated.
   static constexpr double kLostSamples = 1.5;
-  core::RunningMedian<16, false> step_median_;  // only its median is read
+  core::RunningMedian<16> step_median_;
   int since_median_ = 0;
   // Into p_ and beta_ the precomputed result for (q, dq), if one is pending; false otherwise,
   // and then the pending ones are dropped (the stream has gone another way).
