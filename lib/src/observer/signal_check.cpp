@@ -5,15 +5,20 @@
 #include <limits>
 
 #include "momentum/core/error.hpp"
+#include "momentum/core/lanes.hpp"
 #include "momentum/core/number.hpp"
 
 namespace momentum::observer {
 namespace {
 
+namespace lanes = core::lanes;
+using lanes::Pair;
+
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // 1.4826 median(|x|) is the standard deviation of zero-mean normal noise.
 constexpr double kMadToSigma = 1.4826;
 constexpr double kInvSqrt6 = 0.40824829046386301637;
+constexpr double kSqrtHalf = 0.70710678118654752440;
 // A second difference of three values each read to within half an ulp is off by at most two
 // ulps of the largest; eight ulps of the sum of two of them leave a margin.
 constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
@@ -25,16 +30,48 @@ std::string joint_name(int j) { return "joint " + std::to_string(j + 1); }
 // quantisation step when it is the smallest seen (0: none yet). One within the rounding of the
 // values is 0: a signal logged in decimal steps is read into binary fractions, and its exact
 // second differences come out as residues of a few ulps (4e-19 for velocities in steps of
-// 1e-4), which would set the quantisation floor to nothing. (The rounding is tested last: a
-// second difference below the step found so far is rare.)
-inline void lower_quantum(double& quantum, double curvature, double a, double b) {
-  if ((quantum == 0 || curvature < quantum) && curvature > kRoundingUlps * kEpsilon * (std::fabs(a) + std::fabs(b)))
-    quantum = curvature;
+// 1e-4), which would set the quantisation floor to nothing. For one joint (double) or two
+// (Pair) at `quantum`; whether it lowered one.
+template <class V>
+inline bool lower_quantum(double* quantum, V curvature, V a, V b) {
+  const V was = lanes::load<V>(quantum);
+  const auto take = ((was == 0.0) | (curvature < was)) &
+                    (curvature > kRoundingUlps * kEpsilon * (lanes::abs(a) + lanes::abs(b)));
+  // Rarely: a quantum once found is seldom lowered.
+  if (!lanes::any(take)) return false;
+  lanes::store(quantum, lanes::select(take, curvature, was));
+  return true;
 }
 
 // Three velocities rounded independently to steps of `quantum`: their second difference is off
 // by an error of variance 6 quantum^2 / 12.
-double velocity_quantisation_noise(double quantum) { return quantum * std::sqrt(0.5); }
+template <class V>
+inline V velocity_quantisation_noise(V quantum) {
+  return quantum * kSqrtHalf;
+}
+
+// The tolerance of a velocity's departure from its trend one step on, from the running scale
+// of its |d2| (its median, or the median's lower bound) and the velocity's quantum.
+template <class V>
+inline V velocity_tolerance_for(double sigmas, V scale, V dq_quantum) {
+  return sigmas * lanes::max(kMadToSigma * scale, velocity_quantisation_noise(dq_quantum));
+}
+
+// A joint's values within their physical bounds (beyond_limits()), and its position's move
+// within the velocity limit (disagree()): the one definition that plainly_passes() shares, for
+// one joint (double: a bool) or two (Pair: a mask).
+template <class V>
+inline auto position_within(V q, V lower, V upper) {
+  return (q >= lower) & (q <= upper);
+}
+template <class V>
+inline auto magnitude_within(V x, V bound) {
+  return lanes::abs(x) <= bound;
+}
+template <class V>
+inline auto move_within_velocity_limit(V moved, V velocity, double dt, V q_quantum) {
+  return lanes::abs(moved) <= velocity * dt + q_quantum;
+}
 
 }  // namespace
 
@@ -59,41 +96,39 @@ SignalCheck::SignalCheck(const model::Model& model, const SignalCheckOptions& op
   if (!options.IsValid(&why)) throw Error(why);
   const double f = options.limit_factor;
   for (int j = 0; j < model.nq; ++j) {
-    const model::JointLimits& limits = model.joints[static_cast<std::size_t>(j)].limits;
-    Joint& J = joints_[static_cast<std::size_t>(j)];
+    const std::size_t k = static_cast<std::size_t>(j);
+    const model::JointLimits& limits = model.joints[k].limits;
     if (std::isfinite(limits.lower) && std::isfinite(limits.upper) && limits.upper > limits.lower) {
       const double middle = 0.5 * (limits.lower + limits.upper), half = 0.5 * (limits.upper - limits.lower);
-      J.lower = middle - f * half;
-      J.upper = middle + f * half;
+      joints_.lower[k] = middle - f * half;
+      joints_.upper[k] = middle + f * half;
     } else {
-      J.lower = -kInf;
-      J.upper = kInf;
+      joints_.lower[k] = -kInf;
+      joints_.upper[k] = kInf;
     }
     // A limit of 0 or none is no limit (the URDF parser turns both into +inf already).
-    J.velocity = limits.velocity > 0 ? f * limits.velocity : kInf;
-    J.effort = limits.effort > 0 ? f * limits.effort : kInf;
-    J.velocity_limit = J.velocity;
+    joints_.velocity[k] = limits.velocity > 0 ? f * limits.velocity : kInf;
+    joints_.effort[k] = limits.effort > 0 ? f * limits.effort : kInf;
   }
 }
 
 int SignalCheck::beyond_limits(const double* q, const double* dq, const double* tau, std::string* why) const {
   for (std::size_t j = 0; j < joints_.size(); ++j) {
-    const Joint& J = joints_[j];
     const int index = static_cast<int>(j);
-    if (!position_within(J, q[j])) {
+    if (!position_within(q[j], joints_.lower[j], joints_.upper[j])) {
       if (why) *why = joint_name(index) + "'s position " + core::short_number(q[j]) + " is beyond " +
                       core::short_number(options_.limit_factor) + " times its range";
       return index;
     }
-    if (!velocity_within(J, dq[j])) {
+    if (!magnitude_within(dq[j], joints_.velocity[j])) {
       if (why) *why = joint_name(index) + "'s velocity " + core::short_number(dq[j]) + " is beyond " +
-                      core::short_number(J.velocity) + " (" + core::short_number(options_.limit_factor) +
+                      core::short_number(joints_.velocity[j]) + " (" + core::short_number(options_.limit_factor) +
                       " times its limit)";
       return index;
     }
-    if (!effort_within(J, tau[j])) {
+    if (!magnitude_within(tau[j], joints_.effort[j])) {
       if (why) *why = joint_name(index) + "'s torque " + core::short_number(tau[j]) + " is beyond " +
-                      core::short_number(J.effort) + " (" + core::short_number(options_.limit_factor) +
+                      core::short_number(joints_.effort[j]) + " (" + core::short_number(options_.limit_factor) +
                       " times its effort limit)";
       return index;
     }
@@ -108,12 +143,12 @@ double SignalCheck::tolerance(int j, double interval, double typical_dt) {
 
 double SignalCheck::tolerance_as_computed(int j, double interval, double typical_dt) const {
   if (!ready()) return kInf;
-  const Joint& J = joints_[static_cast<std::size_t>(j)];
+  const std::size_t k = static_cast<std::size_t>(j);
+  const double q_quantum = joints_.q_quantum[k], dq_quantum = joints_.dq_quantum[k];
   // Quantisation alone: the difference of two positions rounded independently is off by an
   // error of variance quantum^2 / 6; the mean of two rounded velocities, times dt, by
   // dt^2 quantum^2 / 24.
-  const double floor = std::sqrt(J.q_quantum * J.q_quantum / 6 +
-                                 interval * interval * J.dq_quantum * J.dq_quantum / 24);
+  const double floor = std::sqrt(q_quantum * q_quantum / 6 + interval * interval * dq_quantum * dq_quantum / 24);
   // Over a longer interval (rows left out in between), velocity noise and lag add up.
   const double stretch = typical_dt > 0 ? std::max(1.0, interval / typical_dt) : 1.0;
   return options_.sigmas * std::max(kMadToSigma * abs_error_.value(j) * stretch, floor);
@@ -121,14 +156,8 @@ double SignalCheck::tolerance_as_computed(int j, double interval, double typical
 
 double SignalCheck::velocity_tolerance(int j) const {
   if (curvatures_ < static_cast<std::uint64_t>(kWarmUp)) return kInf;
-  const Joint& J = joints_[static_cast<std::size_t>(j)];
-  return options_.sigmas * std::max(kMadToSigma * abs_velocity_curvature_.value(j),
-                                    velocity_quantisation_noise(J.dq_quantum));
-}
-
-inline double SignalCheck::velocity_tolerance_on_bound(const Joint& J, std::size_t j) const {
-  return options_.sigmas *
-         std::max(kMadToSigma * abs_velocity_curvature_.lower_bound(static_cast<int>(j)), velocity_quantisation_noise(J.dq_quantum));
+  return velocity_tolerance_for(options_.sigmas, abs_velocity_curvature_.value(j),
+                                joints_.dq_quantum[static_cast<std::size_t>(j)]);
 }
 
 namespace {
@@ -146,7 +175,10 @@ struct Extension {
   double noise_ratio;
   Extension(double last_dt, double t_a, double t_b)
       : m((t_b - t_a) / last_dt), noise_ratio(std::sqrt((1 + (m + 1) * (m + 1) + m * m) / 6)) {}
-  double departure(double last_step, double x_a, double x_b) const { return x_b - x_a - m * last_step; }
+  template <class V>
+  V departure(V last_step, V x_a, V x_b) const {
+    return x_b - x_a - m * last_step;
+  }
 };
 
 }  // namespace
@@ -164,10 +196,12 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
   bool have_mass = false;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
     const int index = static_cast<int>(j);
-    Joint& J = joints_[j];
-    const double d = trend.departure(J.last_dq_step, dq_a[j], dq_b[j]);
+    const double d = trend.departure(joints_.last_dq_step[j], dq_a[j], dq_b[j]);
     // Within the tolerance on the scale's lower bound (see learn()), so within it on the scale.
-    if (std::fabs(d) <= velocity_tolerance_on_bound(J, j) * trend.noise_ratio) continue;
+    if (std::fabs(d) <= velocity_tolerance_for(options_.sigmas, abs_velocity_curvature_.lower_bound(index),
+                                               joints_.dq_quantum[j]) *
+                            trend.noise_ratio)
+      continue;
     double tol = velocity_tolerance(index) * trend.noise_ratio;
     if (!std::isfinite(tol)) continue;
     // Beyond the scale as last computed: judged on it brought up to date.
@@ -181,7 +215,7 @@ bool SignalCheck::velocity_jumps(double t_a, const double* dq_a, const double* t
     const double implied = mass_(index, index) * std::fabs(d) / dt;
     // The motor torque's scale is needed here only: computed on demand, not on a schedule.
     if (abs_torque_curvature_.pushes_since_update(index) > 0) abs_torque_curvature_.update(index);
-    const double motor = trend.departure(J.last_tau_step, tau_a[j], tau_b[j]);
+    const double motor = trend.departure(joints_.last_tau_step[j], tau_a[j], tau_b[j]);
     const double motor_tol = torque_tolerance(index) * trend.noise_ratio;
     if (!(implied > std::fabs(motor) + motor_tol)) continue;
     if (why) *why = joint_name(index) + "'s velocity " + core::short_number(dq_b[j]) + " left its trend by " +
@@ -206,7 +240,7 @@ bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, 
   if (!(t_a == last_t_ && last_dt_ > 0 && t_b > t_a && t_c > t_b)) return false;
   const Extension to_b(last_dt_, t_a, t_b), to_c(last_dt_, t_a, t_c);
   for (std::size_t j = 0; j < joints_.size(); ++j) {
-    const double step = joints_[j].last_dq_step;
+    const double step = joints_.last_dq_step[j];
     const double tol = velocity_tolerance(static_cast<int>(j));
     const double c = to_c.departure(step, dq_a[j], dq_c[j]);
     if (!(std::fabs(c) <= tol * to_c.noise_ratio)) return false;
@@ -220,29 +254,43 @@ bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq
                                  const double* dq_b, const double* tau_b, double typical_dt) const {
   const double dt = t_b - t_a;
   const double stretch = typical_dt > 0 ? std::max(1.0, dt / typical_dt) : 1.0;
-  const double position_scale = options_.sigmas * kMadToSigma * stretch;
+  const double sigmas = options_.sigmas;
+  const double position_scale = sigmas * kMadToSigma * stretch;
+  const bool judged = ready();
   // The velocity's trend, where velocity_jumps() would judge it: its scales once warmed up.
   const bool trend = t_a == last_t_ && steps_apart(dt, last_dt_) && curvatures_ >= static_cast<std::uint64_t>(kWarmUp);
   const Extension extension(trend ? last_dt_ : dt, t_a, t_b);
-  for (std::size_t j = 0; j < joints_.size(); ++j) {
-    const Joint& J = joints_[j];
+  const Joints& J = joints_;
+  const double* error_bound = abs_error_.lower_bounds();
+  const double* velocity_bound = abs_velocity_curvature_.lower_bounds();
+  // Joints j (and j + 1 for a Pair): every test in every lane, without a branch.
+  auto passes = [&]<class V>(std::size_t j) {
+    auto at = [j](const double* values) { return lanes::load<V>(values + j); };
+    const V q = at(q_b), dq = at(dq_b), q_quantum = at(J.q_quantum.data()), velocity = at(J.velocity.data());
     // As beyond_limits().
-    if (!(position_within(J, q_b[j]) && velocity_within(J, dq_b[j]) && effort_within(J, tau_b[j]))) return false;
-    // As disagree(), on the scale's lower bound.
-    const double moved = q_b[j] - q_a[j];
-    if (!move_within_velocity_limit(J, moved, dt)) return false;
-    // The quantisation floor without its velocity term (at rest, where the scale is 0).
-    if (ready() && !(std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j])) <=
-                     std::max(position_scale * abs_error_.lower_bound(static_cast<int>(j)),
-                              options_.sigmas * J.q_quantum * kInvSqrt6)))
-      return false;
+    lanes::Mask<V> ok = position_within(q, at(J.lower.data()), at(J.upper.data())) &
+                        magnitude_within(dq, velocity) & magnitude_within(at(tau_b), at(J.effort.data()));
+    // As disagree(), on the scale's lower bound, and the quantisation floor without its velocity
+    // term (at rest, where the scale is 0).
+    const V moved = q - at(q_a), dq_a_j = at(dq_a);
+    ok = ok & move_within_velocity_limit(moved, velocity, dt, q_quantum);
+    if (judged)
+      ok = ok & (lanes::abs(moved - 0.5 * dt * (dq_a_j + dq)) <=
+                 lanes::max(position_scale * at(error_bound), sigmas * q_quantum * kInvSqrt6));
     // As velocity_jumps(), on the scale's lower bound.
     if (trend) {
-      const double d = extension.departure(J.last_dq_step, dq_a[j], dq_b[j]);
-      if (!(std::fabs(d) <= velocity_tolerance_on_bound(J, j) * extension.noise_ratio)) return false;
+      const V d = extension.departure(at(J.last_dq_step.data()), dq_a_j, dq);
+      ok = ok & (lanes::abs(d) <=
+                 velocity_tolerance_for(sigmas, at(velocity_bound), at(J.dq_quantum.data())) * extension.noise_ratio);
     }
-  }
-  return true;
+    return lanes::all(ok);
+  };
+  const std::size_t n = J.size();
+  std::size_t j = 0;
+  bool all = true;
+  for (; j + 2 <= n; j += 2) all = all && passes.operator()<Pair>(j);
+  if (j < n) all = all && passes.operator()<double>(j);
+  return all;
 }
 
 bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
@@ -251,11 +299,10 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
   // As tolerance_as_computed() stretches the scale for the interval.
   const double stretch = typical_dt > 0 ? std::max(1.0, dt / typical_dt) : 1.0;
   for (std::size_t j = 0; j < joints_.size(); ++j) {
-    Joint& J = joints_[j];
     const int index = static_cast<int>(j);
     const double moved = q_b[j] - q_a[j];
     // Faster than the drive can move, whatever the velocity signal says.
-    if (!move_within_velocity_limit(J, moved, dt)) {
+    if (!move_within_velocity_limit(moved, joints_.velocity[j], dt, joints_.q_quantum[j])) {
       if (why) *why = joint_name(index) + "'s position moved " + core::short_number(moved) + " in " +
                       core::short_number(dt) + " s, beyond " + core::short_number(options_.limit_factor) +
                       " times its velocity limit";
@@ -269,7 +316,7 @@ bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, do
     if (std::fabs(e) <= options_.sigmas * (kMadToSigma * abs_error_.lower_bound(index) * stretch)) continue;
     // Beyond it: judged on the scale brought up to date, and on the position's step when this
     // move is one the velocity does not explain and the second of its size.
-    if (std::fabs(0.5 * dt * (dq_a[j] + dq_b[j])) < 0.5 * std::fabs(moved)) note_unexplained_move(J, std::fabs(moved));
+    if (std::fabs(0.5 * dt * (dq_a[j] + dq_b[j])) < 0.5 * std::fabs(moved)) note_unexplained_move(j, std::fabs(moved));
     refresh(abs_error_, j);
     const double tol = tolerance_as_computed(index, dt, typical_dt);
     if (!(std::fabs(e) <= tol)) {
@@ -304,14 +351,16 @@ bool SignalCheck::velocity_change_explains(double t_a, const double* q_a, const 
   return true;
 }
 
-void SignalCheck::note_unexplained_move(Joint& J, double moved) {
-  if (J.rest_candidate > 0 && std::fabs(moved - J.rest_candidate) <= 0.1 * J.rest_candidate) {
-    const double step = std::min(moved, J.rest_candidate);
-    J.rest_step = J.rest_step > 0 ? std::min(J.rest_step, step) : step;
-    J.rest_candidate = 0;
-    J.q_quantum = std::max(J.q_curvature_quantum, J.rest_step);
-  } else if (J.rest_candidate == 0 || moved < J.rest_candidate) {
-    J.rest_candidate = moved;
+void SignalCheck::note_unexplained_move(std::size_t j, double moved) {
+  double& candidate = joints_.rest_candidate[j];
+  double& rest_step = joints_.rest_step[j];
+  if (candidate > 0 && std::fabs(moved - candidate) <= 0.1 * candidate) {
+    const double step = std::min(moved, candidate);
+    rest_step = rest_step > 0 ? std::min(rest_step, step) : step;
+    candidate = 0;
+    joints_.q_quantum[j] = std::max(joints_.q_curvature_quantum[j], rest_step);
+  } else if (candidate == 0 || moved < candidate) {
+    candidate = moved;
   }
 }
 
@@ -336,24 +385,39 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
   double* abs_error = learnt_.data();
   double* abs_velocity_curvature = learnt_.data() + n;
   double* abs_torque_curvature = learnt_.data() + 2 * n;
-  for (std::size_t j = 0; j < n; ++j) {
-    Joint& J = joints_[j];
-    const double moved = q_b[j] - q_a[j];
-    abs_error[j] = std::fabs(moved - 0.5 * dt * (dq_a[j] + dq_b[j]));
-    const double velocity_step = dq_b[j] - dq_a[j];
+  // The arrays' addresses held in registers: the stores below may alias the vectors' members.
+  double* q_quantum = joints_.q_quantum.data();
+  double* dq_quantum = joints_.dq_quantum.data();
+  double* q_curvature_quantum = joints_.q_curvature_quantum.data();
+  const double* rest_step = joints_.rest_step.data();
+  double* last_q_step = joints_.last_q_step.data();
+  double* last_dq_step = joints_.last_dq_step.data();
+  double* last_tau_step = joints_.last_tau_step.data();
+  // Joints j (and j + 1 for a Pair).
+  auto learn_joints = [&]<class V>(std::size_t j) {
+    auto at = [j](const double* values) { return lanes::load<V>(values + j); };
+    const V qa = at(q_a), qb = at(q_b), dqa = at(dq_a), dqb = at(dq_b);
+    const V last_moved = at(last_q_step), last_velocity_step = at(last_dq_step);
+    const V moved = qb - qa;
+    lanes::store(abs_error + j, lanes::abs(moved - 0.5 * dt * (dqa + dqb)));
+    const V velocity_step = dqb - dqa;
     if (continues) {
-      lower_quantum(J.q_curvature_quantum, std::fabs(moved - J.last_q_step), q_a[j], q_b[j]);
-      J.q_quantum = std::max(J.q_curvature_quantum, J.rest_step);
-      lower_quantum(J.dq_quantum, std::fabs(velocity_step - J.last_dq_step), dq_a[j], dq_b[j]);
+      // q_quantum is the larger of the two, whichever changed (note_unexplained_move()).
+      if (lower_quantum(q_curvature_quantum + j, lanes::abs(moved - last_moved), qa, qb))
+        lanes::store(q_quantum + j, lanes::max(at(q_curvature_quantum), at(rest_step)));
+      lower_quantum(dq_quantum + j, lanes::abs(velocity_step - last_velocity_step), dqa, dqb);
     }
     // The velocity's departure from the trend, as velocity_jumps() measures it.
-    const double torque_step = tau_b[j] - tau_a[j];
-    abs_velocity_curvature[j] = std::fabs(velocity_step - J.last_dq_step * stretch);
-    abs_torque_curvature[j] = std::fabs(torque_step - J.last_tau_step * stretch);
-    J.last_q_step = moved;
-    J.last_dq_step = velocity_step;
-    J.last_tau_step = torque_step;
-  }
+    const V torque_step = at(tau_b) - at(tau_a);
+    lanes::store(abs_velocity_curvature + j, lanes::abs(velocity_step - last_velocity_step * stretch));
+    lanes::store(abs_torque_curvature + j, lanes::abs(torque_step - at(last_tau_step) * stretch));
+    lanes::store(last_q_step + j, moved);
+    lanes::store(last_dq_step + j, velocity_step);
+    lanes::store(last_tau_step + j, torque_step);
+  };
+  std::size_t j = 0;
+  for (; j + 2 <= n; j += 2) learn_joints.operator()<Pair>(j);
+  if (j < n) learn_joints.operator()<double>(j);
   abs_error_.push(abs_error);
   if (warming || !abs_error_.bounds_held_at_push()) {
     for (int k = 0; k < abs_error_.windows(); ++k)

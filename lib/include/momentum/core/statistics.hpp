@@ -8,6 +8,8 @@
 #include <limits>
 #include <vector>
 
+#include "momentum/core/lanes.hpp"
+
 namespace momentum::core {
 
 // The median of `values` (reordered in place; NaN not allowed), interpolated within its bin
@@ -224,11 +226,11 @@ class RunningMedianBank {
       const double most_below = (count_ - 1) / 2;
       const double* bound = bound_.data();
       double* below = below_.data();
-      // Two windows at a time, in SSE2's registers (x86-64's baseline): a comparison gives all
-      // ones where it holds, and so 1.0 and 0.0 through a mask. The counts are whole numbers far
-      // below 2^53, exact in doubles, which SSE2 compares where it cannot compare 64-bit integers.
-      typedef double Pair __attribute__((vector_size(16)));
-      typedef std::int64_t PairMask __attribute__((vector_size(16)));
+      // Two windows at a time (lanes.hpp): a comparison gives all ones where it holds, and so
+      // 1.0 and 0.0 through a mask. The counts are whole numbers far below 2^53, exact in
+      // doubles, which SSE2 compares where it cannot compare 64-bit integers.
+      using lanes::Pair;
+      using lanes::PairMask;
       const PairMask one = reinterpret_cast<PairMask>(Pair{} + 1.0);
       const PairMask one_leaving = leaving ? one : PairMask{};
       const Pair most = Pair{} + most_below;
@@ -283,6 +285,11 @@ class RunningMedianBank {
   double lower_bound(int k) const {
     static_assert(KeepsBound);
     return bound_[static_cast<std::size_t>(k)];
+  }
+  // Every window's lower_bound(), window k's at [k].
+  const double* lower_bounds() const {
+    static_assert(KeepsBound);
+    return bound_.data();
   }
   // Whether window k's lower middle value is still at least lower_bound(k), so its median is.
   bool bound_holds(int k) const {

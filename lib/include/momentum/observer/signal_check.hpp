@@ -14,7 +14,7 @@
 // kWindow accepted intervals (1.4826 times the median of |e|, the standard deviation for normal
 // noise), floored by the quantisation noise of the signals themselves (their steps: the smallest
 // nonzero second differences of position and velocity seen; for the position at least its move
-// at rest that the velocity does not explain, seen twice: Joint::rest_step), times `sigmas`; it
+// at rest that the velocity does not explain, seen twice: Joints::rest_step), times `sigmas`; it
 // grows in proportion with the interval when rows in between are left out. Besides, a value
 // beyond the URDF's limits by more than `limit_factor` (positions about the middle of their
 // range, velocities and efforts about 0), or a position change faster than limit_factor times
@@ -147,15 +147,21 @@ class SignalCheck {
   double velocity_tolerance(int j) const;
 
  private:
-  struct Joint {
-    double last_tau_step = 0;  // Nm
+  // Per-joint state, an array per quantity (element j: joint j), so that the tests of most rows
+  // and learn() take two joints at a time.
+  struct Joints {
+    explicit Joints(std::size_t n)
+        : lower(n), upper(n), velocity(n), effort(n), q_quantum(n), dq_quantum(n), q_curvature_quantum(n),
+          rest_step(n), rest_candidate(n), last_q_step(n), last_dq_step(n), last_tau_step(n) {}
+    std::size_t size() const { return lower.size(); }
+    // Bounds with limit_factor: the position's range, |velocity| (also what a position may move
+    // in a second), |effort|.
+    std::vector<double> lower, upper, velocity, effort;
     // Quantisation steps: the smallest nonzero second difference seen (of consecutive
     // intervals), which is a multiple of the step for a quantised signal and as small as the
     // motion's own curvature for a fine one; 0 none yet. rad, rad/s. For the position, the
-    // larger of that and rest_step.
-    double q_quantum = 0;
-    double dq_quantum = 0;
-    double q_curvature_quantum = 0;  // the position's smallest nonzero second difference
+    // larger of that (q_curvature_quantum) and rest_step.
+    std::vector<double> q_quantum, dq_quantum, q_curvature_quantum;
     // A position quantised coarser than it is written (encoder counts of 1.2e-5 rad written
     // with 7 decimals) has second differences of a count plus or minus the writing's rounding,
     // and the rounding alone (1e-7) is the smallest: no measure of the count. Its moves that
@@ -163,27 +169,16 @@ class SignalCheck {
     // each. rest_step: the smallest such move seen twice (within a tenth), 0 none yet;
     // rest_candidate: the smallest seen once since, awaiting its second. A glitch's size does
     // not come twice.
-    double rest_step = 0, rest_candidate = 0;
-    double last_q_step = 0, last_dq_step = 0;  // of the last interval learnt
-    double lower = 0, upper = 0, velocity = 0, effort = 0;  // bounds with limit_factor
-    double velocity_limit = 0;                              // the URDF's, times limit_factor
+    std::vector<double> rest_step, rest_candidate;
+    std::vector<double> last_q_step, last_dq_step, last_tau_step;  // of the last interval learnt; Nm for tau
   };
-  // The physical bounds of one joint's values (beyond_limits()), and its position's move
-  // against its velocity limit (disagree()): the one definition that plainly_passes() shares.
-  static bool position_within(const Joint& J, double q) { return q >= J.lower && q <= J.upper; }
-  static bool velocity_within(const Joint& J, double dq) { return std::fabs(dq) <= J.velocity; }
-  static bool effort_within(const Joint& J, double tau) { return std::fabs(tau) <= J.effort; }
-  static bool move_within_velocity_limit(const Joint& J, double moved, double dt) {
-    return std::fabs(moved) <= J.velocity_limit * dt + J.q_quantum;
-  }
   // tolerance() on the scale as last computed.
   double tolerance_as_computed(int j, double interval, double typical_dt) const;
-  // velocity_tolerance() on the lower bound of the velocity's scale (rad/s).
-  double velocity_tolerance_on_bound(const Joint& J, std::size_t j) const;
   // Tolerance of the motor torque's departure from its trend one step on, Nm.
   double torque_tolerance(int j) const;
-  // Notes a move of the position that its velocity does not explain (see Joint::rest_step).
-  static void note_unexplained_move(Joint& J, double moved);
+  // Notes a move of joint j's position that its velocity does not explain (see
+  // Joints::rest_step).
+  void note_unexplained_move(std::size_t j, double moved);
   // Recomputes window k of `scales` when kRefreshJudged values or more came in since it was
   // last: whether it did.
   static bool refresh(core::RunningMedianBank<kWindow>& scales, std::size_t j);
@@ -192,7 +187,7 @@ class SignalCheck {
   model::Data data_;           // scratch of the mass matrix
   Eigen::MatrixXd mass_;       // M(q) of the last row judged
   SignalCheckOptions options_;
-  std::vector<Joint> joints_;
+  Joints joints_;
   // The running scales, a window per joint: |e| of the accepted intervals, and |d2| of the
   // velocity and of the motor torque (judged on its median only) over pairs of consecutive
   // intervals learnt.

@@ -1,0 +1,56 @@
+#pragma once
+// Two doubles at a time in SSE2's registers (x86-64's baseline; GCC's and Clang's vector
+// extension lower it to scalar code elsewhere), for per-joint loops of the hot path: the same
+// operations as on one double, bit for bit, so that a loop may run its pairs as Pair and its
+// odd last joint as double with one body (a template on the lane type).
+//
+// A comparison of Pairs gives a PairMask: all ones in a lane where it holds, zeros elsewhere,
+// as a comparison of doubles gives a bool; `&` and `|` combine either kind.
+
+#include <cstdint>
+#include <cstring>
+
+namespace momentum::core::lanes {
+
+typedef double Pair __attribute__((vector_size(16)));
+typedef std::int64_t PairMask __attribute__((vector_size(16)));
+
+// The lane type's mask type: bool for double, PairMask for Pair.
+template <class V>
+using Mask = decltype(V{} < V{});
+
+template <class V>
+inline V load(const double* at) {
+  V v;
+  std::memcpy(&v, at, sizeof v);
+  return v;
+}
+
+template <class V>
+inline void store(double* at, V v) {
+  std::memcpy(at, &v, sizeof v);
+}
+
+// |x|: the sign bit cleared, as std::fabs.
+inline double abs(double x) { return __builtin_fabs(x); }
+inline Pair abs(Pair x) {
+  return reinterpret_cast<Pair>(reinterpret_cast<PairMask>(x) & (PairMask{} + INT64_MAX));
+}
+
+// `when ? a : b`, lane by lane.
+inline double select(bool when, double a, double b) { return when ? a : b; }
+inline Pair select(PairMask when, Pair a, Pair b) {
+  return reinterpret_cast<Pair>((reinterpret_cast<PairMask>(a) & when) | (reinterpret_cast<PairMask>(b) & ~when));
+}
+
+// std::max(a, b): b where a < b, else a (a NaN a stays, a NaN b is not taken). One maxpd.
+inline double max(double a, double b) { return a < b ? b : a; }
+inline Pair max(Pair a, Pair b) { return a < b ? b : a; }
+
+// Whether the mask holds in every lane, in some lane.
+inline bool all(bool m) { return m; }
+inline bool all(PairMask m) { return (m[0] & m[1]) != 0; }
+inline bool any(bool m) { return m; }
+inline bool any(PairMask m) { return (m[0] | m[1]) != 0; }
+
+}  // namespace momentum::core::lanes
