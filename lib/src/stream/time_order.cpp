@@ -111,7 +111,7 @@ void TimeOrder::push(const double* row, std::uint64_t position) {
 }
 
 bool TimeOrder::pass(const double* row) {
-  if (!have_last_ || !held_.empty() || ready_next_ < ready_.size()) return false;
+  if (!have_last_ || !idle()) return false;
   const double t = row[time_];
   // (A duplicate of the last kept row has its time: it does not fit.)
   if (!(std::isfinite(t) && fits(last_t_, t))) return false;
