@@ -250,6 +250,7 @@ bool SignalCheck::velocity_on_trend(double t_a, const double* dq_a, double t_b, 
   return true;
 }
 
+MOMENTUM_WITH_AVX2_CLONE
 bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
                                  const double* dq_b, const double* tau_b, double typical_dt) const {
   const double dt = t_b - t_a;
@@ -364,6 +365,7 @@ void SignalCheck::note_unexplained_move(std::size_t j, double moved) {
   }
 }
 
+MOMENTUM_WITH_AVX2_CLONE
 void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const double* tau_a, double t_b,
                         const double* q_b, const double* dq_b, const double* tau_b) {
   const double dt = t_b - t_a;
