@@ -13,8 +13,10 @@
 // A hot function compiled twice, for x86-64's baseline and for AVX2 (VEX's three-operand
 // instructions, and four lanes where -O3 vectorises), the CPU's choosing when the program loads
 // (target_clones: an ifunc). The same operations in the same order, so the same bits: the avx2
-// target does not include FMA, and the files that use it compile without contraction.
-#if defined(__x86_64__) && defined(__has_attribute)
+// target does not include FMA, and the files that use it compile without contraction. GCC
+// only: Clang 14 names the clones' dispatcher apart from the function, so that a caller in
+// another file that does not see the attribute finds no definition.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__has_attribute)
 #if __has_attribute(target_clones)
 #define MOMENTUM_WITH_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
 #endif
