@@ -7,8 +7,10 @@
 #include <numbers>
 #include <set>
 #include <stdexcept>
+#include <type_traits>
 
 #include "momentum/core/error.hpp"
+#include "momentum/core/lanes.hpp"
 #include "momentum/core/number.hpp"
 
 namespace momentum::observer {
@@ -121,7 +123,7 @@ ObserverOptions observer_options_from_json(const nlohmann::json& section,
 }
 
 ResidualObserver::ResidualObserver(std::vector<Gains> gains, const friction::FrictionModel* friction)
-    : gains_(std::move(gains)), state_(gains_.size()) {
+    : gains_(std::move(gains)), state_(kJointArrays * gains_.size()) {
   for (std::size_t j = 0; j < gains_.size(); ++j) {
     same_gains_as_previous_.push_back(j > 0 && gains_[j].k1 == gains_[j - 1].k1 &&
                                       gains_[j].k2 == gains_[j - 1].k2 &&
@@ -136,23 +138,42 @@ ResidualObserver::ResidualObserver(std::vector<Gains> gains, const friction::Fri
   }
 }
 
+namespace {
+// The number of a FilterCoefficients' members, and their order in the observer's arrays.
+constexpr std::size_t kCoefficients = 8;
+
+void store_coefficients(const FilterCoefficients& c, std::size_t n, std::size_t j, double* arrays) {
+  const double members[kCoefficients] = {c.a1, c.b10, c.b11, c.a2, c.c21, c.b20, c.b21, c.gain};
+  for (std::size_t k = 0; k < kCoefficients; ++k) arrays[k * n + j] = members[k];
+}
+
+template <class V>
+FilterCoefficientLanes<V> load_coefficients(const double* arrays, std::size_t n, std::size_t j) {
+  auto at = [&](std::size_t k) { return core::lanes::load<V>(arrays + k * n + j); };
+  return {at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7)};
+}
+}  // namespace
+
 void ResidualObserver::step(double dt, const double* p, const double* u, const double* dq,
                             double* r, double* tau_f, double* mu) {
   const std::size_t n = gains_.size();
   const bool with_friction = !friction_.empty();
+  double* const arrays = state_.data();
+  auto array = [arrays, n](JointArray which) { return arrays + which * n; };
+  double* const previous_p = array(kPreviousP);
+  double* const previous_u = array(kPreviousU);
+  double* const previous_tau_f = array(kPreviousTauF);
   if (!started_) {
     started_ = true;
+    std::fill(arrays, arrays + kPreviousP * n, 0.0);  // every filter at rest
     for (std::size_t j = 0; j < n; ++j) {
-      Joint& s = state_[j];
-      s.residual.reset();
-      s.compensated.reset();
-      s.p = p[j];
-      s.u = u[j];
+      previous_p[j] = p[j];
+      previous_u[j] = u[j];
       r[j] = 0.0;
       if (with_friction) {
         friction_[j].reset();
-        s.tau_f = friction_[j].step(dq[j], 0.0);
-        tau_f[j] = s.tau_f;
+        previous_tau_f[j] = friction_[j].step(dq[j], 0.0);
+        tau_f[j] = previous_tau_f[j];
         mu[j] = 0.0;
       }
     }
@@ -161,33 +182,54 @@ void ResidualObserver::step(double dt, const double* p, const double* u, const d
   const double inv_dt = 1.0 / dt;
   // Coefficients depend on the gains and dt only: joints with the gains of the joint before
   // share them, and an interval seen lately (bit for bit) finds them in the cache.
-  const std::vector<FilterCoefficients>* coefficients = coefficients_.find(dt);
+  const std::vector<double>* coefficients = coefficients_.find(dt);
   if (!coefficients) {
-    std::vector<FilterCoefficients>& fresh = coefficients_.insert(dt);
-    fresh.resize(n);
-    for (std::size_t j = 0; j < n; ++j)
-      fresh[j] = same_gains_as_previous_[j] ? fresh[j - 1] : discretize(gains_[j], dt);
+    std::vector<double>& fresh = coefficients_.insert(dt);
+    fresh.resize(kCoefficients * n);
+    FilterCoefficients c;
+    for (std::size_t j = 0; j < n; ++j) {
+      if (!same_gains_as_previous_[j]) c = discretize(gains_[j], dt);
+      store_coefficients(c, n, j, fresh.data());
+    }
     coefficients = &fresh;
   }
-  for (std::size_t j = 0; j < n; ++j) {
-    const FilterCoefficients& c = (*coefficients)[j];
-    Joint& s = state_[j];
+  // Joints j (and j + 1 for a Pair): the same operations in the same order for each lane as for
+  // one double, so two joints at a time give the bits one at a time gives.
+  auto step_joints = [&]<class V>(std::size_t j) {
+    using core::lanes::load;
+    using core::lanes::store;
+    const FilterCoefficientLanes<V> c = load_coefficients<V>(coefficients->data(), n, j);
     // tau_d = u - dp/dt over the interval, with u linear and p linear between the samples.
-    const double dp = (p[j] - s.p) * inv_dt;
-    const double x_start = s.u - dp;
-    const double x_end = u[j] - dp;
-    s.residual.advance(c, x_start, x_end);
-    r[j] = s.residual.output(c);
+    const V p_now = load<V>(p + j), u_now = load<V>(u + j);
+    const V dp = (p_now - load<V>(previous_p + j)) * inv_dt;
+    const V x_start = load<V>(previous_u + j) - dp;
+    const V x_end = u_now - dp;
+    FilterState<V> residual{load<V>(array(kResidualS1) + j), load<V>(array(kResidualS2) + j)};
+    residual.advance(c, x_start, x_end);
+    store(array(kResidualS1) + j, residual.s1);
+    store(array(kResidualS2) + j, residual.s2);
+    store(r + j, residual.output(c));
     if (with_friction) {
-      const double f = friction_[j].step(dq[j], dt);
-      s.compensated.advance(c, x_start - s.tau_f, x_end - f);
-      mu[j] = s.compensated.output(c);
-      tau_f[j] = f;
-      s.tau_f = f;
+      V f;
+      if constexpr (std::is_same_v<V, double>) {
+        f = friction_[j].step(dq[j], dt);
+      } else {
+        f = V{friction_[j].step(dq[j], dt), friction_[j + 1].step(dq[j + 1], dt)};
+      }
+      FilterState<V> compensated{load<V>(array(kCompensatedS1) + j), load<V>(array(kCompensatedS2) + j)};
+      compensated.advance(c, x_start - load<V>(previous_tau_f + j), x_end - f);
+      store(array(kCompensatedS1) + j, compensated.s1);
+      store(array(kCompensatedS2) + j, compensated.s2);
+      store(mu + j, compensated.output(c));
+      store(tau_f + j, f);
+      store(previous_tau_f + j, f);
     }
-    s.p = p[j];
-    s.u = u[j];
-  }
+    store(previous_p + j, p_now);
+    store(previous_u + j, u_now);
+  };
+  std::size_t j = 0;
+  for (; j + 2 <= n; j += 2) step_joints.operator()<core::lanes::Pair>(j);
+  if (j < n) step_joints.operator()<double>(j);
 }
 
 namespace {

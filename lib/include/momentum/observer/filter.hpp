@@ -52,6 +52,13 @@ struct FilterCoefficients {
 // dt seconds (> 0, finite).
 FilterCoefficients discretize(const Gains& gains, double dt);
 
+// The coefficients of one interval for two joints at once (V = core::lanes::Pair), or for one
+// (V = double): what FilterState<V>::advance() takes in place of FilterCoefficients.
+template <class V>
+struct FilterCoefficientLanes {
+  V a1, b10, b11, a2, c21, b20, b21, gain;
+};
+
 // Values computed for the last few intervals (the filter coefficients), found by the interval
 // bit for bit. The intervals of a steady rate are not one value: t = k / rate rounds, so dt is
 // 1/rate plus a few ulps of t, 2 or 3 values alternating in any stretch of a stream (about 20
@@ -88,14 +95,17 @@ struct FilterState {
   T s2 = T(0);
 
   void reset() { s1 = T(0); s2 = T(0); }
-  // Advances over one interval whose input goes linearly from x_start to x_end.
-  void advance(const FilterCoefficients& c, const T& x_start, const T& x_end) {
+  // Advances over one interval whose input goes linearly from x_start to x_end. `c`: a
+  // FilterCoefficients, or a FilterCoefficientLanes of T's lanes.
+  template <class Coefficients>
+  void advance(const Coefficients& c, const T& x_start, const T& x_end) {
     const T s1_before = s1;
     s1 = c.a1 * s1 + c.b10 * x_start + c.b11 * x_end;
     s2 = c.a2 * s2 + c.c21 * s1_before + c.b20 * x_start + c.b21 * x_end;
   }
   // The filter output at the end of the last interval, in the input's unit.
-  T output(const FilterCoefficients& c) const { return c.gain * (s1 - s2); }
+  template <class Coefficients>
+  T output(const Coefficients& c) const { return c.gain * (s1 - s2); }
 };
 
 // H(s) applied to any sampled torque signal, sample by sample: the filter the fitter passes

@@ -113,16 +113,20 @@ class ResidualObserver {
             double* tau_f, double* mu);
 
  private:
-  struct Joint {
-    FilterState<double> residual;
-    FilterState<double> compensated;
-    double p = 0, u = 0, tau_f = 0;  // previous sample
+  // Per joint, an array of joints() values per quantity, joints side by side, so that the loop
+  // over the joints takes two at a time (core/lanes.hpp).
+  enum JointArray {
+    kResidualS1, kResidualS2,        // the residual's filter state (FilterState)
+    kCompensatedS1, kCompensatedS2,  // the friction-compensated one's
+    kPreviousP, kPreviousU, kPreviousTauF,
+    kJointArrays
   };
   std::vector<Gains> gains_;
   std::vector<bool> same_gains_as_previous_;  // joints sharing coefficients with joint j-1
-  IntervalCache<std::vector<FilterCoefficients>> coefficients_;  // per joint
+  // Per interval, FilterCoefficients' eight members in their order, an array of joints() each.
+  IntervalCache<std::vector<double>> coefficients_;
   std::vector<friction::JointFriction<double>> friction_;
-  std::vector<Joint> state_;
+  std::vector<double> state_;  // kJointArrays arrays
   bool started_ = false;
 };
 
