@@ -226,9 +226,10 @@ class MomentumObserver {
   static constexpr double kLostSamples = 1.5;
   core::RunningMedian<16> step_median_;
   int since_median_ = 0;
-  // Into p_ and beta_ the precomputed result for (q, dq), if one is pending; false otherwise,
-  // and then the pending ones are dropped (the stream has gone another way).
-  bool take_precomputed(const double* q, const double* dq);
+  // The index of the precomputed result for (q, dq) (its p and beta at k * nq in ahead_p_ and
+  // ahead_beta_), if one is pending; -1 otherwise, and then the pending ones are dropped (the
+  // stream has gone another way).
+  int take_precomputed(const double* q, const double* dq);
   model::MomentumBatch batch_;
   // Precomputed samples (precompute()), kLanes x nq values each, and the next one step() may
   // take.
