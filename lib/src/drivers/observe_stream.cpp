@@ -284,13 +284,18 @@ ObserveStreamSummary StreamObserver::run(stream::Writer& out) {
       good_tau.swap(tau);
       unpacked = nullptr;
       have_good = true;
-      held_r = r;
-      if (friction) {
-        held_tau_f = tau_f;
-        held_mu = mu;
-      }
     }
     write(row, status != SampleStatus::ok && status != SampleStatus::bridged, false);
+    if (status != SampleStatus::invalid) {
+      // Swapped, not copied, once written: the observer's next step writes every element of r,
+      // tau_f and mu anew (or returns time_not_increasing, and nothing is written), and a row
+      // left out copies the held values into them.
+      held_r.swap(r);
+      if (friction) {
+        held_tau_f.swap(tau_f);
+        held_mu.swap(mu);
+      }
+    }
   };
 
   // Writes a row left out: its input as read, the residual held at its last value.
