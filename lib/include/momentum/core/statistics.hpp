@@ -256,7 +256,9 @@ class RunningMedianBank {
       }
       bounds_held_ = held;
     } else {
-      for (int k = 0; k < windows; ++k) row[k] = values[k];
+      int k = 0;
+      for (; k + 2 <= windows; k += 2) lanes::store(row + k, lanes::load<lanes::Pair>(values + k));
+      if (k < windows) row[k] = values[k];
       count_ += count_ < N;
     }
     if (++next_ == N) next_ = 0;
