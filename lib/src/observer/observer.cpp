@@ -256,7 +256,7 @@ MomentumObserver::MomentumObserver(const model::Model& model, const ObserverOpti
       u_(model.nq),
       batch_(model, data_) {
   const auto values = static_cast<std::size_t>(model::MomentumBatch::kLanes * model.nq);
-  for (auto* v : {&ahead_q_, &ahead_dq_, &ahead_p_, &ahead_beta_}) v->assign(values, 0.0);
+  for (auto* v : {&ahead_p_, &ahead_beta_}) v->assign(values, 0.0);
 }
 
 void MomentumObserver::precompute(int count, const double* const q[], const double* const dq[]) {
@@ -269,10 +269,8 @@ void MomentumObserver::precompute(int count, const double* const q[], const doub
   double* lane_beta[model::MomentumBatch::kLanes];
   for (int k = 0; k < count; ++k) {
     // Kept: step() compares the samples it gets with these.
-    std::copy(q[k], q[k] + n, &ahead_q_[k * n]);
-    std::copy(dq[k], dq[k] + n, &ahead_dq_[k * n]);
-    lane_q[k] = &ahead_q_[k * n];
-    lane_dq[k] = &ahead_dq_[k * n];
+    ahead_q_[k] = lane_q[k] = q[k];
+    ahead_dq_[k] = lane_dq[k] = dq[k];
     lane_p[k] = &ahead_p_[k * n];
     lane_beta[k] = &ahead_beta_[k * n];
   }
@@ -299,7 +297,7 @@ bool same_bits(const double* a, const double* b, int n) {
 int MomentumObserver::take_precomputed(const double* q, const double* dq) {
   const int n = model_.nq;
   for (int k = ahead_next_; k < ahead_count_; ++k) {
-    if (!same_bits(q, &ahead_q_[k * n], n) || !same_bits(dq, &ahead_dq_[k * n], n)) continue;
+    if (!same_bits(q, ahead_q_[k], n) || !same_bits(dq, ahead_dq_[k], n)) continue;
     ahead_next_ = k + 1;
     ++ahead_taken_;
     return k;

@@ -165,7 +165,8 @@ class MomentumObserver {
   // (model::MomentumBatch::accelerated()); otherwise, or for fewer than two samples, does
   // nothing. A hint: step() takes a precomputed result only for a sample whose q and dq are
   // bit for bit those given here, and the result is bit for bit what it would compute, so the
-  // outputs are the same either way. q[k] and dq[k] point at sample k's nq values.
+  // outputs are the same either way. q[k] and dq[k] point at sample k's nq values, which must
+  // stay as they are until the next precompute() (step() compares its samples with them).
   void precompute(int count, const double* const q[], const double* const dq[]);
   // Whether precompute() does anything here (model::MomentumBatch::accelerated()).
   bool can_precompute() const { return batch_.accelerated(); }
@@ -231,9 +232,11 @@ class MomentumObserver {
   // stream has gone another way).
   int take_precomputed(const double* q, const double* dq);
   model::MomentumBatch batch_;
-  // Precomputed samples (precompute()), kLanes x nq values each, and the next one step() may
-  // take.
-  std::vector<double> ahead_q_, ahead_dq_, ahead_p_, ahead_beta_;
+  // Precomputed samples (precompute()): their q and dq where the caller keeps them, p and beta
+  // (kLanes x nq values each), and the next one step() may take.
+  const double* ahead_q_[model::MomentumBatch::kLanes] = {};
+  const double* ahead_dq_[model::MomentumBatch::kLanes] = {};
+  std::vector<double> ahead_p_, ahead_beta_;
   int ahead_next_ = 0, ahead_count_ = 0;
   std::uint64_t ahead_taken_ = 0;
 };
