@@ -98,6 +98,53 @@ TEST(ResidualObserver, CompensationEqualsFilteredFriction) {
   for (std::size_t k = 0; k < ts.size(); ++k) ASSERT_NEAR(model[k], r1[k] - mu1[k], 1e-11 * (1 + std::abs(r1[k])));
 }
 
+// The joints are independent filters: five joints stepped together (two pairs and an odd last
+// one, some sharing the gains of the joint before) give, bit for bit, what five one-joint
+// observers give, with and without friction.
+TEST(ResidualObserver, JointsTogetherAreEachJointAlone) {
+  const std::vector<mo::Gains> gains{{50, 0, 0}, {50, 0, 0}, {40, 6, 10}, {30, 30, 0}, {8, 40, 3}};
+  const std::size_t n = gains.size();
+  mf::FrictionModel friction;
+  friction.kind = mf::Kind::lugre;
+  friction.joints = {{98467.9088, 314.0483, 6.4865, 7.8322, 4.0033, 0.0978},
+                     {1.0e5, 300.0, 0.8, 2.0, 3.0, 0.05},
+                     {5.0e4, 200.0, 2.0, 4.0, 5.0, 0.1},
+                     {98467.9088, 314.0483, 6.4865, 7.8322, 4.0033, 0.0978},
+                     {2.0e5, 100.0, 0.3, 1.0, 1.5, 0.02}};
+  for (const bool with_friction : {false, true}) {
+    mo::ResidualObserver together(gains, with_friction ? &friction : nullptr);
+    std::vector<mo::ResidualObserver> alone;
+    std::vector<mf::FrictionModel> one_joint(n, friction);
+    for (std::size_t j = 0; j < n; ++j) {
+      one_joint[j].joints = {friction.joints[j]};
+      alone.emplace_back(std::vector<mo::Gains>{gains[j]}, with_friction ? &one_joint[j] : nullptr);
+    }
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> jitter(0.5, 1.5), noise(-1, 1);
+    std::vector<double> p(n), u(n), dq(n), r(n), tau_f(n), mu(n);
+    double t = 0;
+    for (int k = 0; k < 2000; ++k) {
+      const double dt = k ? 0.001 * jitter(rng) : 0.0;
+      t += dt;
+      for (std::size_t j = 0; j < n; ++j) {
+        dq[j] = (0.3 + 0.1 * static_cast<double>(j)) * std::sin((1.0 + static_cast<double>(j)) * t) + 1e-3 * noise(rng);
+        p[j] = (1.0 + static_cast<double>(j)) * dq[j];
+        u[j] = 5 * std::cos(2 * t + static_cast<double>(j)) + noise(rng);
+      }
+      together.step(dt, p.data(), u.data(), dq.data(), r.data(), tau_f.data(), mu.data());
+      for (std::size_t j = 0; j < n; ++j) {
+        double r_j = 0, tau_f_j = 0, mu_j = 0;
+        alone[j].step(dt, &p[j], &u[j], &dq[j], &r_j, &tau_f_j, &mu_j);
+        ASSERT_EQ(r[j], r_j) << "joint " << j + 1 << " sample " << k << (with_friction ? " with friction" : "");
+        if (with_friction) {
+          ASSERT_EQ(tau_f[j], tau_f_j) << "joint " << j + 1 << " sample " << k;
+          ASSERT_EQ(mu[j], mu_j) << "joint " << j + 1 << " sample " << k;
+        }
+      }
+    }
+  }
+}
+
 TEST(ObserverOptions, FromJson) {
   std::vector<std::string> warnings;
   const auto o = mo::observer_options_from_json(
