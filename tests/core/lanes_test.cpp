@@ -54,3 +54,31 @@ TEST(Lanes, PairOperationsAreTheScalarOnesLaneByLane) {
           EXPECT_EQ(lanes::any(less), a[0] < b[0] || a[1] < b[1]);
         }
 }
+
+// The per-joint loop visits every joint once, in pairs and an odd last one alone, and all_joints
+// stops at the first joint that fails.
+TEST(Lanes, JointLoopsVisitEveryJointOnceInPairs) {
+  for (std::size_t n : {0u, 1u, 2u, 5u, 6u, 7u}) {
+    std::vector<int> visits(n, 0);
+    std::vector<std::size_t> pair_starts;
+    lanes::for_joints(n, [&]<class V>(std::size_t j) {
+      const std::size_t width = sizeof(V) / sizeof(double);
+      if (width == 2) pair_starts.push_back(j);
+      for (std::size_t k = j; k < j + width; ++k) ++visits.at(k);
+    });
+    EXPECT_EQ(visits, std::vector<int>(n, 1)) << n << " joints";
+    EXPECT_EQ(pair_starts.size(), n / 2) << n << " joints";
+    for (std::size_t k = 0; k < pair_starts.size(); ++k) EXPECT_EQ(pair_starts[k], 2 * k);
+  }
+  // Joint 3 of 7 fails: the pair (2, 3) is the last looked at, and the odd joint 6 is not.
+  std::vector<std::size_t> seen;
+  const double value[7] = {0, 0, 0, 1, 0, 0, 0};
+  const bool all = lanes::all_joints(7, [&]<class V>(std::size_t j) {
+    seen.push_back(j);
+    return lanes::all(lanes::load<V>(value + j) == 0.0);
+  });
+  EXPECT_FALSE(all);
+  EXPECT_EQ(seen, (std::vector<std::size_t>{0, 2}));
+  EXPECT_TRUE(lanes::all_joints(7, [&]<class V>(std::size_t j) { return lanes::all(lanes::load<V>(value + j) < 2.0); }));
+  EXPECT_TRUE(lanes::all_joints(0, [&]<class V>(std::size_t) { return false; }));
+}

@@ -228,9 +228,7 @@ void ResidualObserver::step(double dt, const double* p, const double* u, const d
     store(previous_p + j, p_now);
     store(previous_u + j, u_now);
   };
-  std::size_t j = 0;
-  for (; j + 2 <= n; j += 2) step_joints.operator()<core::lanes::Pair>(j);
-  if (j < n) step_joints.operator()<double>(j);
+  core::lanes::for_joints(n, step_joints);
 }
 
 namespace {

@@ -12,7 +12,6 @@ namespace momentum::observer {
 namespace {
 
 namespace lanes = core::lanes;
-using lanes::Pair;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // 1.4826 median(|x|) is the standard deviation of zero-mean normal noise.
@@ -286,12 +285,7 @@ bool SignalCheck::plainly_passes(double t_a, const double* q_a, const double* dq
     }
     return lanes::all(ok);
   };
-  const std::size_t n = J.size();
-  std::size_t j = 0;
-  bool all = true;
-  for (; j + 2 <= n; j += 2) all = all && passes.operator()<Pair>(j);
-  if (j < n) all = all && passes.operator()<double>(j);
-  return all;
+  return lanes::all_joints(J.size(), passes);
 }
 
 bool SignalCheck::disagree(double t_a, const double* q_a, const double* dq_a, double t_b, const double* q_b,
@@ -417,9 +411,7 @@ void SignalCheck::learn(double t_a, const double* q_a, const double* dq_a, const
     lanes::store(last_dq_step + j, velocity_step);
     lanes::store(last_tau_step + j, torque_step);
   };
-  std::size_t j = 0;
-  for (; j + 2 <= n; j += 2) learn_joints.operator()<Pair>(j);
-  if (j < n) learn_joints.operator()<double>(j);
+  lanes::for_joints(n, learn_joints);
   abs_error_.push(abs_error);
   if (warming || !abs_error_.bounds_held_at_push()) {
     for (int k = 0; k < abs_error_.windows(); ++k)

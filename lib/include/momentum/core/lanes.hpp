@@ -7,6 +7,7 @@
 // A comparison of Pairs gives a PairMask: all ones in a lane where it holds, zeros elsewhere,
 // as a comparison of doubles gives a bool; `&` and `|` combine either kind.
 
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 
@@ -67,5 +68,27 @@ inline bool all(bool m) { return m; }
 inline bool all(PairMask m) { return (m[0] & m[1]) != 0; }
 inline bool any(bool m) { return m; }
 inline bool any(PairMask m) { return (m[0] | m[1]) != 0; }
+
+// The per-joint loop of the hot path: body.template operator()<V>(j) for joints 0 .. n-1, two at
+// a time (V = Pair, joints j and j + 1) and an odd last one alone (V = double). `body` is a
+// lambda templated on the lane type: [&]<class V>(std::size_t j) { ... }. Always inlined: called
+// from an AVX2 clone (MOMENTUM_WITH_AVX2_CLONE), a helper GCC left out of line ran the body at
+// the baseline target, behind a call (4,200 against 3,720 instructions a row of mo-observe).
+template <class Body>
+[[gnu::always_inline]] inline void for_joints(std::size_t n, Body&& body) {
+  std::size_t j = 0;
+  for (; j + 2 <= n; j += 2) body.template operator()<Pair>(j);
+  if (j < n) body.template operator()<double>(j);
+}
+
+// As for_joints() for a body that returns whether its joints pass, stopping at the first that
+// does not: whether every joint passed.
+template <class Body>
+[[gnu::always_inline]] inline bool all_joints(std::size_t n, Body&& body) {
+  std::size_t j = 0;
+  for (; j + 2 <= n; j += 2)
+    if (!body.template operator()<Pair>(j)) return false;
+  return j == n || body.template operator()<double>(j);
+}
 
 }  // namespace momentum::core::lanes
