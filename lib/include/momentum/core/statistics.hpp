@@ -256,9 +256,8 @@ class RunningMedianBank {
       }
       bounds_held_ = held;
     } else {
-      int k = 0;
-      for (; k + 2 <= windows; k += 2) lanes::store(row + k, lanes::load<lanes::Pair>(values + k));
-      if (k < windows) row[k] = values[k];
+      lanes::for_joints(static_cast<std::size_t>(windows),
+                        [&]<class V>(std::size_t k) { lanes::store(row + k, lanes::load<V>(values + k)); });
       count_ += count_ < N;
     }
     if (++next_ == N) next_ = 0;
