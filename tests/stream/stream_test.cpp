@@ -428,7 +428,7 @@ TEST(Columns, ListsAreBoundedAndDuplicatesFound) {
 
 // Text from a binary stream (or any caller) written as CSV cannot become a data row, a header
 // or another column order: a comment's line breaks start new comment lines, and a column name
-// that holds a separator, a quote or a leading '#' is quoted.
+// that holds a separator, a quote or a leading '#' or 0x89 is quoted.
 TEST(Stream, CommentsAndNamesCannotBecomeRowsOrHeadersInCsv) {
   const std::string bin = temp_path("inject.bin"), csv = temp_path("inject.csv");
   const std::vector<std::string> names = {"t", "q,1", "#x", "say \"hi\"", " pad", "a;b"};
@@ -471,6 +471,22 @@ TEST(Stream, CommentsAndNamesCannotBecomeRowsOrHeadersInCsv) {
   EXPECT_EQ(rows, (std::vector<std::vector<double>>{{0, 1, 2, 3, 4, 5}, {1, 1, 2, 3, 4, 5}}));
   EXPECT_EQ(comments, (std::vector<std::string>{"row comment", "7,7,7,7,7,7", "last"}));
   EXPECT_EQ(in->rows_skipped(), 0u);
+
+  // A first name that starts with byte 0x89 would make the file's first byte the binary
+  // encodings' (found by fuzzing: "\x89MCAP" read back as a broken bag): quoted, it reads back.
+  {
+    const std::string first = temp_path("first-byte.csv");
+    const std::vector<std::string> magic = {"\x89MCAP", "\x89MOLOG"};
+    auto out = ms::Writer::open(first, {ms::Encoding::csv, false});
+    out->header(magic);
+    const double row[2] = {1, 2};
+    out->row(row);
+    out->close();
+    EXPECT_EQ(read_file(first), "\"\x89MCAP\",\"\x89MOLOG\"\n1,2\n");
+    auto back = ms::Reader::open(first, as_written);
+    EXPECT_EQ(back->columns(), magic);
+    EXPECT_EQ(read_all(*back), (std::vector<std::vector<double>>{{1, 2}}));
+  }
 
   // A name with a line break cannot be a CSV header field at all: refused, naming it.
   auto out = ms::Writer::open(temp_path("refused.csv"), {ms::Encoding::csv, false});

@@ -48,10 +48,11 @@ const char* csv_name_problem(std::string_view name) {
 }
 
 // True when `name` must be quoted to read back as itself: it holds a separator the reader
-// detects or a quote, has blanks at either end, or starts like a comment.
+// detects or a quote, has blanks at either end, starts like a comment, or starts with the
+// binary encodings' first byte 0x89 (a file that begins with it is read as binary or MCAP).
 bool csv_name_needs_quotes(std::string_view name) {
   if (name.find_first_of(",;\t\" ") != std::string_view::npos) return true;
-  return name.front() == '#';
+  return name.front() == '#' || static_cast<unsigned char>(name.front()) == 0x89;
 }
 
 }  // namespace

@@ -25,7 +25,8 @@ std::string_view encoding_name(Encoding encoding);
 std::string csv_comment_lines(std::string_view text);
 
 // The CSV header line of `columns`, with "\n". A name that holds a separator the reader detects
-// (comma, semicolon, tab, space) or a double quote, or that starts with '#', is written
+// (comma, semicolon, tab, space) or a double quote, or that starts with '#' or with byte 0x89
+// (the first byte of the binary encodings, by which a reader tells them from CSV), is written
 // double-quoted with "" for a quote, so that it reads back as itself. Throws momentum::Error
 // for an empty name or one with a control character (a line break would end the header).
 std::string csv_header_line(const std::vector<std::string>& columns);
