@@ -440,6 +440,29 @@ TEST(Window, KeepsTheLevelBeforeTheOnsetAndHalvesItsRate) {
     EXPECT_NEAR(window.samples()[i].t - window.samples()[i - 1].t, 0.02, 1e-12);
 }
 
+// A joint at rest before the contact (its level rows weighed as such, 0.25) keeps that weight
+// through the contact even when it moves (weight 4): the torque it held against static
+// friction, in the level, may go at any row. A joint that moved before keeps its rows' own.
+TEST(Window, ARowIsNoBetterKnownThanTheLevelItIsReadFrom) {
+  mc::ContactWindow window(2, 64, 64, 0.05);
+  const double q[2] = {0, 0}, x[2] = {1, 1};
+  for (int k = 0; k < 20; ++k) {
+    const double weight[2] = {k < 10 ? 0.25 : 4.0, k < 8 ? 4.0 : 2.0};
+    window.add(0.01 * k, q, x, weight);
+  }
+  window.open(0.095);  // rows 5..9 the level: joint 1 at rest, joint 2 moving (4, then 2 from row 8)
+  ASSERT_EQ(window.samples().size(), 10u);
+  for (const mc::ResidualSample& s : window.samples()) {
+    EXPECT_EQ(s.weight[0], 0.25) << "t " << s.t;
+    EXPECT_EQ(s.weight[1], 2.0) << "t " << s.t;
+  }
+  // Opened again later, on rows where joint 1 moves: its own weight again.
+  window.close();
+  window.open(0.185);
+  ASSERT_EQ(window.samples().size(), 1u);
+  EXPECT_EQ(window.samples().front().weight[0], 4.0);
+}
+
 // A first-order observer's lag undone: a 40 ms push of 100 Nm (a level of 3 Nm before it),
 // seen through mo-observe's own filter at K1 = 50 1/s at 1 kHz, reaches only 86.5 Nm in the
 // residual (100 (1 - exp(-2)) over the level); the disturbance recovered from it is back at 100

@@ -13,6 +13,7 @@ ContactWindow::ContactWindow(std::size_t joints, std::size_t ring_rows, std::siz
     throw Error("contact window: needs joints, a ring of 2 rows or more, a capacity of 4 or more, a level span > 0");
   ring_.resize(ring_rows_ * width());
   level_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
+  level_weight_ = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(n_), INFINITY);
   samples_.reserve(capacity_);
 }
 
@@ -50,7 +51,7 @@ void ContactWindow::record(const double* row) {
   s.t = row[0];
   s.q = Eigen::Map<const Eigen::VectorXd>(row + 1, n);
   s.r = Eigen::Map<const Eigen::VectorXd>(row + 1 + n_, n) - level_;
-  s.weight = Eigen::Map<const Eigen::VectorXd>(row + 1 + 2 * n_, n);
+  s.weight = Eigen::Map<const Eigen::VectorXd>(row + 1 + 2 * n_, n).cwiseMin(level_weight_);
   if (!k1_.empty()) {
     s.tau = s.r;
     s.tau_weight = s.weight;
@@ -94,12 +95,15 @@ void ContactWindow::open(double t_onset_estimate) {
   samples_.clear();
   const std::size_t first = (ring_next_ + ring_rows_ - ring_size_) % ring_rows_;
   auto row = [&](std::size_t k) { return &ring_[((first + k) % ring_rows_) * width()]; };
+  const auto n = static_cast<Eigen::Index>(n_);
   level_.setZero();
+  level_weight_.setConstant(INFINITY);
   int level_rows = 0;
   for (std::size_t k = 0; k < ring_size_; ++k) {
     const double* r = row(k);
     if (r[0] < t_onset_estimate && r[0] >= t_onset_estimate - level_seconds_) {
-      level_ += Eigen::Map<const Eigen::VectorXd>(r + 1 + n_, static_cast<Eigen::Index>(n_));
+      level_ += Eigen::Map<const Eigen::VectorXd>(r + 1 + n_, n);
+      level_weight_ = level_weight_.cwiseMin(Eigen::Map<const Eigen::VectorXd>(r + 1 + 2 * n_, n));
       ++level_rows;
     }
   }

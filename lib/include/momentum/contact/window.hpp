@@ -25,7 +25,15 @@ class ContactWindow {
   void add(double t, const double* q, const double* x, const double* weight);
   // An event opened on the last row added, with the contact estimated to start at
   // t_onset_estimate: its level is the mean residual of the ring's rows in the level span
-  // before that time (0 when there are none), and its record starts at that time.
+  // before that time (0 when there are none), and its record starts at that time. A recorded
+  // row's weight of each joint is at most the least weight of the joint's level rows: the row's
+  // residual minus the level is no better known than the level. A joint at rest before the
+  // contact holds a torque against static friction that the model cannot know (the level),
+  // and when the contact or the arm's reaction to it breaks the joint free, or changes what
+  // it holds, that torque goes and the change is read as a disturbance: the noise of a joint at
+  // rest, not of a moving one. (On the MuJoCo UR5 campaigns, learnt on one and scored on the
+  // other, the learnt link temperature went from 119 to 2.3 and the link probabilities' Brier
+  // score from 0.126 to 0.102 and 0.122 to 0.091.)
   void open(double t_onset_estimate);
   // The residuals come from a first-order observer of gains k1 (1/s, n values, > 0), r' = K1
   // (tau - r): every sample recorded from now on also carries tau, the disturbance with the
@@ -43,7 +51,7 @@ class ContactWindow {
   void close() { open_ = false; }
   bool is_open() const { return open_; }
 
-  // The event's rows so far, residual minus the level.
+  // The event's rows so far, residual minus the level, weights at most the level's.
   std::span<const ResidualSample> samples() const { return samples_; }
   double t_onset_estimate() const { return t_onset_; }
 
@@ -59,6 +67,7 @@ class ContactWindow {
   bool open_ = false;
   double t_onset_ = 0;
   Eigen::VectorXd level_;
+  Eigen::VectorXd level_weight_;  // per joint: the least weight of the level rows
   std::vector<ResidualSample> samples_;
   std::size_t stride_ = 1, since_kept_ = 0;
   std::vector<double> k1_;  // empty: the lag is not undone
