@@ -32,8 +32,8 @@ class ContactWindow {
   // and when the contact or the arm's reaction to it breaks the joint free, or changes what
   // it holds, that torque goes and the change is read as a disturbance: the noise of a joint at
   // rest, not of a moving one. (On the MuJoCo UR5 campaigns, learnt on one and scored on the
-  // other, the learnt link temperature went from 119 to 2.3 and the link probabilities' Brier
-  // score from 0.126 to 0.102 and 0.122 to 0.091.)
+  // other, the learnt link temperature went from 119 and 71 to 2.3 and 4.3, and the link
+  // probabilities' Brier score from 0.126 and 0.122 to 0.102 and 0.091.)
   void open(double t_onset_estimate);
   // The residuals come from a first-order observer of gains k1 (1/s, n values, > 0), r' = K1
   // (tau - r): every sample recorded from now on also carries tau, the disturbance with the
