@@ -12,7 +12,7 @@
 // lever off the axis). Several samples of the same
 // contact (the arm moves, the force grows and fades, the point stays) sharpen the point. The
 // samples share the point and the force's direction (the contact's normal, tilted within its
-// friction cone, turns little in the tenths of a second up to the peak); each has a magnitude
+// friction cone, turns little while the contact is strong); each has a magnitude
 // of its own. That is the physics of a contact and not of the model's errors, which the
 // controller's reaction to the contact spreads over the other joints with a pattern that
 // changes from sample to sample: a body that fits a sample's residuals only by absorbing those
@@ -85,8 +85,8 @@ struct LocatorOptions {
   // Radius of the links' cylinders, m (>= 0; 0: the segments only). Each axial position adds
   // 16 points around it (8 for LinkChoice::best_fit). A cobot's links are about 0.05 m (mo-sim's default too).
   double link_radius = 0.05;
-  // Most samples used in one fit (the strongest, evenly chosen among those of at least half the
-  // peak), >= 1.
+  // Most samples used in one fit (evenly chosen among those of at least half the peak, before
+  // and after it), >= 1.
   int max_fit_samples = 24;
   // A more distal body is chosen over the most proximal candidate only when its weighted cost
   // is lower by more than this per extra unknown (the fit's own noise scale; a likelihood-ratio
