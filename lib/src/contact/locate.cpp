@@ -498,8 +498,8 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   // on the MuJoCo UR5's obstacle collisions, every body fitted left 30 to 70 times its
   // calibrated noise on joint 5, and the costs' common scale then drowned what joints 1 to 3
   // told. What no candidate body explains on a joint is that joint's noise in this event: its
-  // least mean square misfit over the bodies, never below the calibrated noise, divides the
-  // joint's weights, and the bodies are fitted again.
+  // least mean square weighted misfit over the bodies (at least 1, the calibrated noise) scales
+  // the joint's variance, and the bodies are fitted again.
   std::vector<ResidualSample> reweighted;
   if (fit.size() > 1 && !fits.empty()) {
     Eigen::VectorXd inflation = Eigen::VectorXd::Constant(nq, std::numeric_limits<double>::infinity());

@@ -21,6 +21,10 @@
 // 310 to 324 of 386 with it and the likelihood-ratio test of LinkChoice::proximal_accepted,
 // and at detection from 191 to 216.)
 //
+// The weights are the calibrated noise of free motion, but a contact's reaction brings the
+// model's errors in accelerations free motion does not reach: what no candidate body explains on
+// a joint is taken as that joint's noise in the event (Locator::locate fits twice).
+//
 // What the joints cannot see is said, not guessed: a force on body b has 3 unknowns and the
 // point 1 more, but only joints 1..b see it. Below 3 joints the force is known only along the
 // directions those joints see (the minimum-norm solution is given); below 4 the point anywhere
