@@ -499,9 +499,10 @@ Location Locator::locate(std::span<const ResidualSample> samples, int first_link
   // calibrated noise on joint 5, and the costs' common scale then drowned what joints 1 to 3
   // told. What no candidate body explains on a joint is that joint's noise in this event: its
   // least mean square weighted misfit over the bodies (at least 1, the calibrated noise) scales
-  // the joint's variance, and the bodies are fitted again.
+  // the joint's variance, and the bodies are fitted again. Not at detection: its window holds
+  // the rise, before most of the reaction, and the identified row is awaited live.
   std::vector<ResidualSample> reweighted;
-  if (fit.size() > 1 && !fits.empty()) {
+  if (choice != LinkChoice::best_fit && fit.size() > 1 && !fits.empty()) {
     Eigen::VectorXd inflation = Eigen::VectorXd::Constant(nq, std::numeric_limits<double>::infinity());
     std::vector<Eigen::VectorXd> body_misfits;
     for (const BodyFit& g : fits) {
